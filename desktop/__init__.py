@@ -1,0 +1,1 @@
+"""fluxcal desktop side (CPython + numpy): references, simulator, CLI, serial link."""
