@@ -1,0 +1,97 @@
+"""Exact power sums of 3-D integer samples and their exact re-centring.
+
+The 35 sums S[i,j,k] = sum x^i y^j z^k, i+j+k <= 4, are the sufficient
+statistics of every quadric fit used here: for any centre and quadric the
+normal matrix and gradient of sum (v^T A v - 1)^2 are polynomials of degree
+<= 4 in v = h - b. Kept as Python integers (arbitrary precision on CPython and
+on MicroPython's rp2/esp32/stm32/unix ports), they are exact: add/remove/merge
+commute, and re-centring on a new point is an exact binomial expansion, so no
+precision is lost however far the data sit from the origin.
+"""
+
+import math
+
+# Exponent triples in storage order: by degree, then x-power descending, then
+# y-power descending. EllipsoidFit.add writes the sums in exactly this order.
+ORDER = []
+for _d in range(5):
+    for _i in range(_d, -1, -1):
+        for _j in range(_d - _i, -1, -1):
+            ORDER.append((_i, _j, _d - _i - _j))
+INDEX = {}
+for _n, _e in enumerate(ORDER):
+    INDEX[_e] = _n
+COUNT = len(ORDER)  # 35
+
+_BINOM = ((1,), (1, 1), (1, 2, 1), (1, 3, 3, 1), (1, 4, 6, 4, 1))
+
+
+def shifted(sums, scale, centre):
+    """Power sums of (scale*h - centre) from the power sums of h, exactly.
+
+    sums: list of COUNT ints (storage order); scale: int; centre: 3 ints.
+    Each factor expands as (s*x - c)^i = sum_t C(i,t) s^t x^t (-c)^(i-t).
+    """
+    powers = []
+    for c in centre:
+        p = [1]
+        for _ in range(4):
+            p.append(p[-1] * -c)
+        powers.append(p)
+    spow = [1]
+    for _ in range(4):
+        spow.append(spow[-1] * scale)
+    px, py, pz = powers
+    out = []
+    for i, j, k in ORDER:
+        bi = _BINOM[i]
+        bj = _BINOM[j]
+        bk = _BINOM[k]
+        total = 0
+        for t1 in range(i + 1):
+            for t2 in range(j + 1):
+                c12 = bi[t1] * bj[t2] * px[i - t1] * py[j - t2]
+                if c12 == 0:
+                    continue
+                for t3 in range(k + 1):
+                    coeff = c12 * bk[t3] * pz[k - t3]
+                    if coeff:
+                        total += coeff * spow[t1 + t2 + t3] * sums[INDEX[(t1, t2, t3)]]
+        out.append(total)
+    return out
+
+
+def bit_length(x):
+    """Number of bits of |x| (MicroPython ints have no int.bit_length)."""
+    if x < 0:
+        x = -x
+    n = 0
+    while x >= 0x100000000:
+        x >>= 32
+        n += 32
+    while x:
+        x >>= 1
+        n += 1
+    return n
+
+
+def to_float(x, exponent=0):
+    """float(x * 2**exponent) for an int x of any size, the same on every runtime.
+
+    The integer is first cut to 53 significant bits with an integer shift
+    (floor), so the conversion itself is exact and CPython and MicroPython give
+    bit-identical doubles; on a 32-bit-float port the final rounding is the
+    port's own. ldexp applies the power of two in one step, so no intermediate
+    over- or underflows the narrow float range.
+    """
+    extra = bit_length(x) - 53
+    if extra > 0:
+        x >>= extra
+        exponent += extra
+    return math.ldexp(float(x), exponent)
+
+
+def mean_centre(sums):
+    """The integer nearest the sample mean (a convenient exact re-centring point)."""
+    n = sums[0]
+    return [(2 * sums[k] + n) // (2 * n) for k in (1, 2, 3)]

@@ -1,0 +1,567 @@
+"""Solve the ellipsoid fit from exact power sums (used by shared.fit.EllipsoidFit.solve).
+
+Model (paper eq. 2): h_c = M (h - b), |h_c| = R for every orientation. With
+A = M^T M / R^2 each sample gives the residual
+
+    r = v^T A v - 1,   v = (h - b) / 2^e            (1)
+
+(|M(h-b)|^2 - R^2 normalised by R^2; 2^e is a power-of-two frame scale).
+We minimise the MAP objective
+
+    L(A, b) = N log(sum r^2) + sum_k rho_k^2         (2)
+
+where rho are weak prior residuals (shape of A near a sphere, or near a
+previous calibration). Its stationarity condition is
+sum r dr/dp + (RSS/N) sum rho drho/dp = 0: the prior is weighted by the fitted
+residual variance, so it vanishes wherever the data are informative.
+
+Why it is accurate in single precision: the parameters are held as
+fixed-point integers (FRAC fractional bits), and at each Gauss-Newton step
+the data gradient and the residual sum of squares are computed *exactly* in
+integers from the power sums re-centred on the current b. Only the step
+direction (normal matrix, 9x9) is computed in the chosen number type; an
+approximate normal matrix changes how fast the iteration converges, never
+where it converges (mixed-precision iterative refinement). Float32, 22-bit
+CircuitPython floats and doubles therefore reach the same fixed point.
+"""
+
+import math
+
+from shared import linalg
+from shared.moments import INDEX, bit_length, mean_centre, shifted, to_float
+
+FRAC = 40  # fractional bits of the fixed-point parameters (relative 1e-12)
+
+# The quadric terms w(v) with w.a = v^T A v, a = (A11, A22, A33, A12, A13, A23).
+_W_EXP = ((2, 0, 0), (0, 2, 0), (0, 0, 2), (1, 1, 0), (1, 0, 1), (0, 1, 1))
+_W_C = (1, 1, 1, 2, 2, 2)
+_UNIT = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+_PAIR = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+
+def _add(e1, e2):
+    return (e1[0] + e2[0], e1[1] + e2[1], e1[2] + e2[2])
+
+
+_IDX4 = [[INDEX[_add(_W_EXP[m], _W_EXP[n])] for n in range(6)] for m in range(6)]
+_C4 = [[_W_C[m] * _W_C[n] for n in range(6)] for m in range(6)]
+_IDX3 = [[INDEX[_add(_UNIT[i], _W_EXP[n])] for n in range(6)] for i in range(3)]
+_IDX2 = [INDEX[e] for e in _W_EXP]
+_IDX1 = [INDEX[e] for e in _UNIT]
+_IDX2M = [[INDEX[_add(_UNIT[i], _UNIT[j])] for j in range(3)] for i in range(3)]
+
+# Icosahedron vertices: a spherical 5-design, so averaging a degree-4
+# polynomial of the direction over these 12 points is exact (used for the
+# predicted full-sphere error, whose variance is quartic in the direction).
+_PHI = (1.0 + 5.0 ** 0.5) / 2.0
+_NORM = (1.0 + _PHI * _PHI) ** 0.5
+_ICO = []
+for _s1 in (1.0, -1.0):
+    for _s2 in (1.0, -1.0):
+        _ICO.append((0.0, _s1 / _NORM, _s2 * _PHI / _NORM))
+        _ICO.append((_s1 / _NORM, _s2 * _PHI / _NORM, 0.0))
+        _ICO.append((_s2 * _PHI / _NORM, 0.0, _s1 / _NORM))
+
+TOO_FEW_SAMPLES = "too_few_samples"
+DEGENERATE_COVERAGE = "degenerate_coverage"
+NOT_ELLIPSOID = "not_ellipsoid"
+NON_FINITE = "non_finite"
+
+
+class FitError(Exception):
+    """A calibration that cannot be trusted; .reason is a stable code."""
+
+    def __init__(self, reason, message):
+        Exception.__init__(self, "%s: %s" % (reason, message))
+        self.reason = reason
+        self.message = message
+
+
+def _log1p(x):
+    # MicroPython's math has no log1p; near convergence x ~ 1e-12 and
+    # log(1 + x) would round it away.
+    if -1e-4 < x < 1e-4:
+        return x - x * x / 2.0 + x * x * x / 3.0
+    return math.log(1.0 + x)
+
+
+def _sym(a):
+    return [[a[0], a[3], a[4]], [a[3], a[1], a[5]], [a[4], a[5], a[2]]]
+
+
+class _Problem:
+    """The fit in the frame v = (h - C) / 2^e, parameters as fixed-point ints."""
+
+    def __init__(self, sums, num):
+        self.num = num
+        self.n = sums[0]
+        self.nf = num(float(self.n))
+        self.centre = mean_centre(sums)
+        self.u = shifted(sums, 1, self.centre)  # exact sums of h - C
+        u = self.u
+        n = self.n
+        # n^2 * covariance, exact.
+        cov = [[n * u[_IDX2M[i][j]] - u[_IDX1[i]] * u[_IDX1[j]] for j in range(3)] for i in range(3)]
+        trace = (cov[0][0] + cov[1][1] + cov[2][2]) // (n * n)
+        # Frame scale 2^e ~ rms spread: every moment in the frame is O(1).
+        self.e = (bit_length(trace) + 1) // 2
+        if self.e > FRAC:
+            raise ValueError("input values too large for the fixed-point frame")
+        self.shift = 1 << (FRAC - self.e)
+        self.cov = [[num(to_float(c, -2 * self.e)) / (self.nf * self.nf) for c in row] for row in cov]
+
+    # -- exact part ----------------------------------------------------------
+    def sums_at(self, f_int):
+        """Exact sums of V = 2^FRAC v for the centre b = C + f_int 2^(e-FRAC)."""
+        return shifted(self.u, self.shift, f_int)
+
+    def exact(self, s, a_int):
+        """(g_A, T, RSS) as exact ints: 2^5F sum w r, 2^4F sum v r, 2^6F sum r^2."""
+        p3 = 1 << (3 * FRAC)
+        ga = []
+        for m in range(6):
+            acc = 0
+            row = _IDX4[m]
+            crow = _C4[m]
+            for k in range(6):
+                acc += a_int[k] * crow[k] * s[row[k]]
+            ga.append(acc - p3 * _W_C[m] * s[_IDX2[m]])
+        t = []
+        for i in range(3):
+            acc = 0
+            row = _IDX3[i]
+            for k in range(6):
+                acc += a_int[k] * _W_C[k] * s[row[k]]
+            t.append(acc - p3 * s[_IDX1[i]])
+        lin = 0
+        for m in range(6):
+            lin += a_int[m] * _W_C[m] * s[_IDX2[m]]
+        rss = p3 * p3 * self.n - p3 * lin
+        for m in range(6):
+            rss += a_int[m] * ga[m]
+        return ga, t, rss
+
+    # -- float part ----------------------------------------------------------
+    def value(self, x, exponent):
+        return self.num(to_float(x, exponent))
+
+    def normal_equations(self, s, a_int, ga, t):
+        """Per-sample normal matrix H (9x9) and gradient g of (1) at the state."""
+        num = self.num
+        nf = self.nf
+        two = num(2.0)
+        a = [self.value(x, -FRAC) for x in a_int]
+        am = _sym(a)
+        m4 = [[self.value(s[_IDX4[m][k]], -4 * FRAC) * num(float(_C4[m][k])) / nf for k in range(6)] for m in range(6)]
+        m3 = [[self.value(s[_IDX3[i][k]], -3 * FRAC) * num(float(_W_C[k])) / nf for k in range(6)] for i in range(3)]
+        m2 = [[self.value(s[_IDX2M[i][j]], -2 * FRAC) / nf for j in range(3)] for i in range(3)]
+        h = [[num(0.0)] * 9 for _ in range(9)]
+        for m in range(6):
+            for k in range(6):
+                h[m][k] = m4[m][k]
+            for i in range(3):
+                # d r / d f_i = -2 (A v)_i
+                x = -two * (am[i][0] * m3[0][m] + am[i][1] * m3[1][m] + am[i][2] * m3[2][m])
+                h[m][6 + i] = x
+                h[6 + i][m] = x
+        am2 = [[am[i][0] * m2[0][j] + am[i][1] * m2[1][j] + am[i][2] * m2[2][j] for j in range(3)] for i in range(3)]
+        four = num(4.0)
+        for i in range(3):
+            for k in range(3):
+                h[6 + i][6 + k] = four * (am2[i][0] * am[0][k] + am2[i][1] * am[1][k] + am2[i][2] * am[2][k])
+        tv = [self.value(x, -4 * FRAC) / nf for x in t]
+        g = [self.value(x, -5 * FRAC) / nf for x in ga]
+        for i in range(3):
+            g.append(-two * (am[i][0] * tv[0] + am[i][1] * tv[1] + am[i][2] * tv[2]))
+        return h, g, a
+
+
+class _Prior:
+    """Weak prior residuals rho(a, f) and their Jacobian (9 columns)."""
+
+    def __init__(self, num, kr, q_target, q_sigma, f_target=None, f_sigma=None, t_target=None, t_sigma=None):
+        self.num = num
+        self.kr = [num(k) for k in kr]
+        self.q_target = [num(x) for x in q_target]
+        self.q_sigma = [num(x) for x in q_sigma]
+        self.f_target = [num(x) for x in f_target] if f_target else None
+        self.f_sigma = num(f_sigma) if f_sigma else None
+        self.t_target = num(t_target) if t_target else None
+        self.t_sigma = num(t_sigma) if t_sigma else None
+
+    def shape(self, a):
+        """A' = K^-1 A K^-1 (nominal axes), t = tr A' / 3, q = A'/t - I."""
+        num = self.num
+        kr = self.kr
+        ap = [a[m] / (kr[_PAIR[m][0]] * kr[_PAIR[m][1]]) for m in range(6)]
+        t = (ap[0] + ap[1] + ap[2]) / num(3.0)
+        q = [ap[m] / t - (num(1.0) if m < 3 else num(0.0)) for m in range(6)]
+        return ap, t, q
+
+    def residuals(self, a, f):
+        num = self.num
+        zero = num(0.0)
+        ap, t, q = self.shape(a)
+        rho = []
+        jac = []
+        # d t / d a_m is 1/(3 k_m^2) for the diagonal terms, 0 otherwise.
+        dt = [num(1.0) / (num(3.0) * self.kr[m] * self.kr[m]) if m < 3 else zero for m in range(6)]
+        for i in range(6):
+            rho.append((q[i] - self.q_target[i]) / self.q_sigma[i])
+            row = [zero] * 9
+            for m in range(6):
+                d = -ap[i] * dt[m] / (t * t)
+                if m == i:
+                    d = d + num(1.0) / (self.kr[_PAIR[m][0]] * self.kr[_PAIR[m][1]] * t)
+                row[m] = d / self.q_sigma[i]
+            jac.append(row)
+        if self.f_target is not None:
+            for i in range(3):
+                rho.append((f[i] - self.f_target[i]) / self.f_sigma)
+                row = [zero] * 9
+                row[6 + i] = num(1.0) / self.f_sigma
+                jac.append(row)
+        if self.t_target is not None:
+            rho.append((t / self.t_target - num(1.0)) / self.t_sigma)
+            row = [zero] * 9
+            for m in range(3):
+                row[m] = dt[m] / (self.t_target * self.t_sigma)
+            jac.append(row)
+        return rho, jac
+
+
+def _finite_all(values):
+    for x in values:
+        if not linalg.isfinite(x):
+            return False
+    return True
+
+
+def _initial_guesses(pb):
+    """Algebraic quadric fit and a sphere fit, both from the float moments about C.
+
+    Returns a list of (a, f) in the frame; the caller keeps the one with the
+    lower exact objective. The algebraic fit (w.a + g.v = 1, origin at the data
+    mean, which is inside any convex surface the data lie on) is good with wide
+    coverage; the sphere fit is the safe start for a small cap.
+    """
+    num = pb.num
+    nf = pb.nf
+    e = pb.e
+    u = pb.u
+
+    def mu(exp):
+        return num(to_float(u[INDEX[exp]], -e * (exp[0] + exp[1] + exp[2]))) / nf
+
+    guesses = []
+    feats = [(_W_EXP[m], _W_C[m]) for m in range(6)] + [(_UNIT[i], 1) for i in range(3)]
+    gram = [[mu(_add(fp[0], fq[0])) * num(float(fp[1] * fq[1])) for fq in feats] for fp in feats]
+    rhs = [mu(fp[0]) * num(float(fp[1])) for fp in feats]
+    try:
+        sol = linalg.solve_spd(gram, rhs, num)
+        am = _sym(sol[:6])
+        low = linalg.cholesky(am, num)
+        half_g = [sol[6 + i] / num(2.0) for i in range(3)]
+        centre = linalg.cho_solve(low, half_g)  # A c = g/2, b = -c ... sign below
+        b = [-x for x in centre]
+        kappa = num(1.0) + sum(b[i] * (am[i][0] * b[0] + am[i][1] * b[1] + am[i][2] * b[2]) for i in range(3))
+        if kappa > num(0.0):
+            guesses.append(([x / kappa for x in sol[:6]], b))
+    except ValueError:
+        pass
+    # Sphere: |v|^2 + g.v + d = 0, linear least squares in (g, d).
+    one = num(1.0)
+    gram = [[mu(_add(_UNIT[i], _UNIT[j])) for j in range(3)] + [mu(_UNIT[i])] for i in range(3)]
+    gram.append([mu(_UNIT[j]) for j in range(3)] + [one])
+    rhs = []
+    for i in range(3):
+        rhs.append(-(mu(_add(_UNIT[i], (2, 0, 0))) + mu(_add(_UNIT[i], (0, 2, 0))) + mu(_add(_UNIT[i], (0, 0, 2)))))
+    rhs.append(-(mu((2, 0, 0)) + mu((0, 2, 0)) + mu((0, 0, 2))))
+    try:
+        sol = linalg.solve_spd(gram, rhs, num)
+        b = [-sol[i] / num(2.0) for i in range(3)]
+        r2 = b[0] * b[0] + b[1] * b[1] + b[2] * b[2] - sol[3]
+        if r2 > num(0.0):
+            inv = one / r2
+            guesses.append(([inv, inv, inv, num(0.0), num(0.0), num(0.0)], b))
+    except ValueError:
+        pass
+    return guesses
+
+
+def _expm1(x):
+    if -1e-4 < x < 1e-4:
+        return x + x * x / 2.0 + x * x * x / 6.0
+    return math.exp(x) - 1.0
+
+
+def _isqrt(n):
+    """floor(sqrt(n)) for a non-negative int of any size (Newton in integers)."""
+    if n < 2:
+        return n
+    x = 1 << ((bit_length(n) + 1) // 2)
+    while True:
+        y = (x + n // x) // 2
+        if y >= x:
+            return x
+        x = y
+
+
+def _sqrt_third(tr, exponent):
+    """sqrt(tr * 2^exponent / 3) for an int tr and an even exponent, rounded once."""
+    j = max(0, (120 - bit_length(tr)) // 2)
+    return to_float(_isqrt((tr << (2 * j)) // 3), exponent // 2 - j)
+
+
+def _quantise(x):
+    return int(round(math.ldexp(float(x), FRAC)))
+
+
+class _State:
+    def __init__(self, pb, prior, a_int, f_int):
+        self.a_int = a_int
+        self.f_int = f_int
+        self.s = pb.sums_at(f_int)
+        self.ga, self.t, self.rss = pb.exact(self.s, a_int)
+        self.a = [pb.value(x, -FRAC) for x in a_int]
+        self.f = [pb.value(x, -FRAC) for x in f_int]
+        self.rho, self.jac = prior.residuals(self.a, self.f) if prior else ([], [])
+        num = pb.num
+        p = num(0.0)
+        for r in self.rho:
+            p = p + r * r
+        self.prior_sq = p
+
+    def worse_than(self, other, n):
+        """Exact-where-it-matters comparison of objective (2): self - other > 0."""
+        if self.rss <= 0 or other.rss <= 0:
+            return self.rss > other.rss
+        # N log(RSS'/RSS) from the exact difference, then the prior's change.
+        rel = to_float(self.rss - other.rss) / to_float(other.rss)
+        return n * _log1p(rel) + float(self.prior_sq - other.prior_sq) > 0.0
+
+
+def _system(pb, st):
+    h, g, _ = pb.normal_equations(st.s, st.a_int, st.ga, st.t)
+    if st.rho:
+        num = pb.num
+        lam = pb.value(st.rss, -6 * FRAC) / (pb.nf * pb.nf)  # (RSS/N)/N
+        for r, row in zip(st.rho, st.jac):
+            for i in range(9):
+                if row[i] == num(0.0):
+                    continue
+                g[i] = g[i] + lam * row[i] * r
+                for k in range(9):
+                    h[i][k] = h[i][k] + lam * row[i] * row[k]
+    return h, g
+
+
+def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175),
+          min_samples=12, max_iter=60, max_error=None, min_observability=1e-6):
+    """See EllipsoidFit.solve; returns a Calibration or raises FitError."""
+    from shared.calibration import Calibration
+
+    n = sums[0]
+    if n < min_samples:
+        raise FitError(TOO_FEW_SAMPLES, "%d samples, need at least %d" % (n, min_samples))
+    k_nom = [float(scale)] * 3 if isinstance(scale, (int, float)) else [float(k) for k in scale]
+    if len(k_nom) != 3 or not (k_nom[0] > 0 and k_nom[1] > 0 and k_nom[2] > 0):
+        raise ValueError("scale must be a positive number or 3 positive numbers")
+    if field is not None and not field > 0:
+        raise ValueError("field must be positive")
+    k_geo = (k_nom[0] * k_nom[1] * k_nom[2]) ** (1.0 / 3.0)
+    kr = [k / k_geo for k in k_nom]
+
+    pb = _Problem(sums, num)
+    values, _ = linalg.eigh3(pb.cov, num)
+    top = max(values)
+    observability = float(min(values) / top) if top > num(0.0) else 0.0
+    if not top > num(0.0) or (prior is None and observability < min_observability):
+        raise FitError(DEGENERATE_COVERAGE, "samples span no volume (observability %.2g): rotate about more than one axis" % observability)
+
+    pr = _make_prior(pb, prior, field, num, kr, k_nom, shape_sigma)
+
+    best = None
+    for a, f in _initial_guesses(pb):
+        if not _finite_all(a) or not _finite_all(f):
+            continue
+        st = _State(pb, pr, [_quantise(x) for x in a], [_quantise(x) for x in f])
+        if best is None or best.worse_than(st, n):
+            best = st
+    if best is None:
+        raise FitError(NOT_ELLIPSOID, "no ellipsoid through the samples")
+
+    st = best
+    mu = 1e-3
+    iterations = 0
+    for iterations in range(1, max_iter + 1):
+        h, g = _system(pb, st)
+        if not _finite_all(g):
+            raise FitError(NON_FINITE, "gradient is not finite")
+        moved = False
+        small = False
+        for _ in range(10):
+            damped = [row[:] for row in h]
+            for i in range(9):
+                damped[i][i] = damped[i][i] * num(1.0 + mu)
+            try:
+                step = linalg.solve_spd(damped, [-x for x in g], num)
+            except ValueError:
+                mu = mu * 10.0 if mu > 0 else 1e-3
+                continue
+            if not _finite_all(step):
+                raise FitError(NON_FINITE, "step is not finite")
+            da = [_quantise(x) for x in step[:6]]
+            df = [_quantise(x) for x in step[6:]]
+            if not any(da) and not any(df):
+                break
+            biggest = max(abs(float(x)) for x in step)
+            cand = _State(pb, pr, [st.a_int[i] + da[i] for i in range(6)], [st.f_int[i] + df[i] for i in range(3)])
+            # Near the fixed point the Gauss-Newton step is trusted even when
+            # rounding hides the (tiny) decrease of the objective.
+            if biggest < 1e-7 or not cand.worse_than(st, n):
+                st = cand
+                moved = True
+                small = biggest < math.ldexp(1.0, 2 - FRAC)
+                mu = mu / 10.0 if mu > 1e-9 else 0.0
+                break
+            mu = mu * 10.0 if mu > 0 else 1e-3
+        if not moved or small:
+            break
+
+    return _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error)
+
+
+def _make_prior(pb, prior, field, num, kr, k_nom, shape_sigma):
+    if prior is None:
+        if shape_sigma is None:
+            return None
+        sd, so = shape_sigma
+        return _Prior(num, kr, [0.0] * 6, [sd, sd, sd, so, so, so])
+    # A previous calibration on the same input unit: the quadric it implies
+    # for today's field, A = M^T M / F^2, in this fit's frame (x 4^e).
+    m = prior.matrix
+    f_now = float(field) if field is not None else prior.field
+    scale_frame = math.ldexp(1.0, 2 * pb.e) / (f_now * f_now)
+    a_raw = []
+    for i, j in _PAIR:
+        a_raw.append(sum(m[r][i] * m[r][j] for r in range(3)) * scale_frame)
+    ap = [a_raw[k] / (kr[_PAIR[k][0]] * kr[_PAIR[k][1]]) for k in range(6)]
+    t = (ap[0] + ap[1] + ap[2]) / 3.0
+    q = [ap[k] / t - (1.0 if k < 3 else 0.0) for k in range(6)]
+    gain = abs(linalg.det3(m)) ** (1.0 / 3.0)  # output unit per input unit
+    f_target = [(prior.offset[i] - pb.centre[i]) / math.ldexp(1.0, pb.e) for i in range(3)]
+    f_sigma = PRIOR_OFFSET_NT / gain / math.ldexp(1.0, pb.e)
+    return _Prior(num, kr, q, [PRIOR_SHAPE] * 6, f_target, f_sigma, t, PRIOR_SHAPE)
+
+
+# A previous calibration of the same sensor: how far today's may differ.
+# Shape and gain within 2e-4 (about 10 nT at 50,000 nT); offsets within 10 nT
+# (fluxgate offset drift with temperature is of that order over a field day).
+PRIOR_SHAPE = 2e-4
+PRIOR_OFFSET_NT = 10.0
+
+
+def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error):
+    from shared.calibration import Calibration
+
+    one = num(1.0)
+    zero = num(0.0)
+    am = _sym(st.a)
+    a_values, a_vectors = linalg.eigh3(am, num)
+    if not min(a_values) > zero:
+        raise FitError(NOT_ELLIPSOID, "fitted quadric is not an ellipsoid (eigenvalues %s)" % ", ".join("%.3g" % float(x) for x in a_values))
+
+    # Shape E = A'/t - I with A' = K^-1 A K^-1; for equal nominal scales it is
+    # formed from the exact integers, so |E| ~ 1e-2 carries full relative precision.
+    if kr[0] == kr[1] == kr[2]:
+        tr = st.a_int[0] + st.a_int[1] + st.a_int[2]
+        trf = to_float(tr)
+        e = [num(to_float(3 * st.a_int[m] - (tr if m < 3 else 0)) / trf) for m in range(6)]
+    else:
+        _, _, e = pr.shape(st.a) if pr else _Prior(num, kr, [0.0] * 6, [1.0] * 6).shape(st.a)
+    e_values, e_vectors = linalg.eigh3(_sym(e), num)
+    # G = sqrt(I + E) = I + X, X = V diag(l / (1 + sqrt(1 + l))) V^T: the small
+    # part is computed on its own so float32 rounding acts on 1e-2, not on 1.
+    x = linalg.sym_function(e_values, e_vectors, lambda l: l / (one + num(math.sqrt(float(one + l)))))
+    # log det(I + E) = sum log1p(l); tr E = 0, so the sum is O(|E|^2) and is
+    # best formed from the small eigenvalues themselves, not from a product
+    # of numbers near 1.
+    log_det = 0.0
+    for l in e_values:
+        log_det += _log1p(float(l))
+    # t' = tr(K^-1 A_raw K^-1)/3 with A_raw = A_frame / 4^e (nominal-unit quadric scale).
+    kn = [num(k) for k in k_nom]
+    t_raw = (st.a[0] / (kn[0] * kn[0]) + st.a[1] / (kn[1] * kn[1]) + st.a[2] / (kn[2] * kn[2])) / num(3.0)
+    t_raw = t_raw / num(math.ldexp(1.0, 2 * pb.e))
+    # det(s G) = 1 fixes the gain when the field is unknown: s = det(I+E)^(-1/6) = 1 + sigma.
+    sigma = _expm1(-log_det / 6.0)
+    radius = num(1.0 + sigma) / num(math.sqrt(float(t_raw)))
+    # M = c (I + Y) K. Each entry is assembled as c k_j delta_ij + c k_j Y_ij so
+    # that the O(1) part is rounded once and the rest of the rounding acts on
+    # |Y| ~ 1e-2 (float32: 3e-3 nT instead of 1e-2 nT at 50,000 nT).
+    if field is None:
+        y = [[num(sigma) * (one if i == j else zero) + num(1.0 + sigma) * x[i][j] for j in range(3)] for i in range(3)]
+        ck = kn
+        field_out = radius
+    else:
+        y = x
+        field_out = num(float(field))
+        if kn[0] == kn[1] == kn[2]:
+            # c k = F sqrt(tr A_raw / 3), from the exact integer trace.
+            c = num(float(field) * _sqrt_third(st.a_int[0] + st.a_int[1] + st.a_int[2], -FRAC - 2 * pb.e))
+            ck = [c, c, c]
+        else:
+            c = field_out * num(math.sqrt(float(t_raw)))
+            ck = [c * k for k in kn]
+    matrix = [[(ck[j] if i == j else zero) + ck[j] * y[i][j] for j in range(3)] for i in range(3)]
+    offset = [num(float(pb.centre[i]) + to_float(st.f_int[i], pb.e - FRAC)) for i in range(3)]
+
+    rss = pb.value(st.rss, -6 * FRAC) / pb.nf
+    rms = num(math.sqrt(float(rss))) / num(2.0) * field_out
+    predicted = _predicted_error(pb, st, rss, am, a_values, a_vectors, num) * field_out
+
+    flat = [v for row in matrix for v in row] + offset + [field_out, rms, predicted]
+    if not _finite_all(flat):
+        raise FitError(NON_FINITE, "calibration is not finite")
+    limit = max_error if max_error is not None else 0.01 * float(field_out)
+    if float(predicted) > limit:
+        raise FitError(DEGENERATE_COVERAGE, "predicted calibration error %.3g exceeds %.3g: rotate through more orientations" % (float(predicted), limit))
+    diagnostics = {
+        "n": pb.n,
+        "rms": float(rms),
+        "observability": observability,
+        "predicted_error": float(predicted),
+        "iterations": iterations,
+        "radius": float(radius),
+    }
+    return Calibration([[float(v) for v in row] for row in matrix], [float(v) for v in offset], float(field_out), diagnostics)
+
+
+def _predicted_error(pb, st, rss, am, a_values, a_vectors, num):
+    """RMS over the sphere of the relative |h_c| error, from the posterior covariance.
+
+    Cov(p) = (RSS/N) H^-1 with H the per-sample normal matrix of (2). For a true
+    direction u the point on the fitted ellipsoid is v = A^-1/2 u and the
+    relative magnitude error is g.dp with g = (w(v)/2, -A v).
+    """
+    h, _ = _system(pb, st)
+    try:
+        low = linalg.cholesky(h, num)
+    except ValueError:
+        raise FitError(DEGENERATE_COVERAGE, "orientations seen leave the calibration undetermined: rotate about all axes")
+    inv_sqrt = linalg.sym_function(a_values, a_vectors, lambda l: num(1.0) / num(math.sqrt(float(l))))
+    total = num(0.0)
+    two = num(2.0)
+    for direction in _ICO:
+        uu = [num(c) for c in direction]
+        v = linalg.matvec(inv_sqrt, uu)
+        av = linalg.matvec(am, v)
+        g = [v[0] * v[0] / two, v[1] * v[1] / two, v[2] * v[2] / two, v[0] * v[1], v[0] * v[2], v[1] * v[2], -av[0], -av[1], -av[2]]
+        y = linalg.cho_solve(low, g)
+        for i in range(9):
+            total = total + g[i] * y[i]
+    var = total / num(float(len(_ICO))) * rss / pb.nf
+    if not var >= num(0.0):
+        raise FitError(NON_FINITE, "covariance is not finite")
+    return num(math.sqrt(float(var)))
