@@ -129,14 +129,8 @@ class Config:
 
     @classmethod
     def default(cls, dr=5, gain=1, mux=(MUX_NORMAL, MUX_NORMAL), vref_4v=False):
-        """A configuration as the firmware writes it (RESP1/RESP2 aside)."""
-        r = list(RESET_VALUES)
-        r[CONFIG1] = dr
-        r[CONFIG2] = 0x80 | PDB_REFBUF | (VREF_4V if vref_4v else 0)
-        code = GAINS.index(gain)
-        r[CH1SET] = (code << 4) | mux[0]
-        r[CH2SET] = (code << 4) | mux[1]
-        return cls(r)
+        """The configuration :func:`standard_registers` describes."""
+        return cls(standard_registers(dr, gain, mux, vref_4v))
 
     @property
     def decimation(self):
@@ -147,6 +141,24 @@ class Config:
     def rate(self):
         """Output data rate, SPS."""
         return F_MOD // self.decimation
+
+
+def standard_registers(dr=5, gain=1, mux=(MUX_NORMAL, MUX_NORMAL), vref_4v=False):
+    """Register map (12 values) of a chip configured for this instrument.
+
+    Internal reference buffer on (CONFIG2 = 0xA0 [DS §8.3.11]), data rate code
+    `dr`, both channels at `gain` with the given MUX settings, RESP1 = 0x02 and
+    RESP2.RESP_FREQ = 1 as the ADS1292 requires [DS §8.6.1.10-11].
+    """
+    r = list(RESET_VALUES)
+    r[CONFIG1] = dr
+    r[CONFIG2] = 0x80 | PDB_REFBUF | (VREF_4V if vref_4v else 0)
+    code = GAINS.index(gain)
+    r[CH1SET] = (code << 4) | mux[0]
+    r[CH2SET] = (code << 4) | mux[1]
+    r[RESP1] = 0x02
+    r[RESP2] = 0x06
+    return r
 
 
 def sinc3_kernel(decimation, step, phase):
@@ -285,6 +297,17 @@ def parse_frames(raw):
     return words[:, 0], codes
 
 
+class _NoNoise:
+    """Stands in for a Generator when the ADC's noise is switched off."""
+
+    @staticmethod
+    def standard_normal(shape):
+        return np.zeros(shape)
+
+
+NO_NOISE = _NoNoise()
+
+
 class ADS1292:
     """One ADS1292 on an SPI bus (mode 1), emulated byte by byte.
 
@@ -294,6 +317,8 @@ class ADS1292:
         Value of the ID register (0x53 ADS1292, 0x52 ADS1291, 0x73 ADS1292R).
     seed : int or numpy.random.Generator or None
         Seeds the ADC noise (and fault draws, from a separate stream).
+    noise : bool
+        False: no input-referred noise (an ideal converter, for tests).
     fault : str or None
         One of FAULTS (see docs/simulator.md).
     fault_rate : float
@@ -306,7 +331,7 @@ class ADS1292:
     """
 
     def __init__(self, chip_id=0x53, *, seed=None, fault=None, fault_rate=None,
-                 sclk_hz=1_000_000, strict=True):
+                 sclk_hz=1_000_000, strict=True, noise=True):
         if fault is not None and fault not in FAULTS:
             raise ValueError("unknown fault %r (one of %s)" % (fault, ", ".join(FAULTS)))
         self.chip_id = chip_id
@@ -316,6 +341,7 @@ class ADS1292:
         self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         # faults draw from a child stream so they never shift the noise sequence
         self._fault_rng = np.random.default_rng(self.rng.bit_generator.seed_seq.spawn(1)[0])
+        self.noise = noise
         self.sclk_hz = float(sclk_hz)
         self.strict = strict
         self.violations = []
@@ -426,7 +452,8 @@ class ADS1292:
             d = cfg.decimation
             n = 1 if (cfg.single_shot or self._stop_after_next) else (target - self._next_drdy) // d + 1
             codes = convert(self._volts, self._temp if self._temp is not None else self.temperature_c,
-                            cfg, first_tick=self._next_drdy, n=n, rng=self.rng, step=self._step,
+                            cfg, first_tick=self._next_drdy, n=n, step=self._step,
+                            rng=self.rng if self.noise else NO_NOISE,
                             grid_tick0=self._grid_tick0, clipping=self.fault == "clipping")
             self.tick = self._next_drdy + (n - 1) * d
             self.conversions += n

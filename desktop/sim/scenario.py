@@ -1,0 +1,241 @@
+"""The whole handheld, vectorised: operator -> field -> fluxgate -> two ADS1292.
+
+    from desktop.sim.scenario import Scenario, simulate
+    cap = simulate(Scenario(seconds=120))          # dict of arrays (capture keys)
+
+Chip A digitises X (CH1) and Y (CH2); chip B digitises Z (CH1) and its own
+temperature sensor (CH2, MUX=0100). Both run continuously from START at
+tick 0 with the same configuration, so their DRDYs coincide.
+
+The analog signal is computed on a grid of `grid_rate` (16 kHz default: fMOD/8,
+a whole number of samples per conversion at every data rate) in chunks of a
+few seconds, each carrying the filter states and the last grid samples the
+sinc3 window needs into the next, then :func:`desktop.sim.ads1292.convert`
+turns it into codes exactly as the byte-level emulator does.
+
+Random streams (numpy Generators, one per purpose, all derived from the seeds):
+`seed` alone fixes the sensor's errors; `motion_seed` the operator's motion;
+the noise realisations (sensor and ADC) derive from both, so two captures of
+the same sensor with different motions have independent noise.
+"""
+
+import json
+
+import numpy as np
+
+from desktop.sim import ads1292 as ads
+from desktop.sim.field import Field, earth_vector
+from desktop.sim.filters import lowpass
+from desktop.sim.motion import make_motion, to_sensor
+from desktop.sim.sensor import Fluxgate
+
+RATES = ads.DATA_RATES
+
+
+class Scenario:
+    """All knobs of one simulated capture (defaults: the paper's in-situ setup).
+
+    Parameters (keyword only)
+    -------------------------
+    sensor : "mag649" | "mag648"
+    seed : int                 sensor errors
+    motion : see desktop.sim.motion.MOTIONS
+    motion_seed : int
+    seconds : float            capture length, s
+    rate : int                 ADS1292 data rate, SPS (125 .. 8000)
+    rot_rate : float           typical rotation rate, rev/s
+    coverage : float           fraction of the sphere the motion may reach
+    noise : float              sensor white noise, nT rms per conversion
+    pink : float               sensor 1/f noise, nT rms
+    bandwidth : float or None  override the preset's bandwidth (None: the preset)
+    ideal : bool               a perfect sensor and front end
+    adc_noise : bool           the ADS1292's input-referred noise [DS §7.1]
+    gain : int                 PGA gain of the field channels
+    vref_4v : bool             4.033 V reference instead of 2.42 V
+    field_nT, inclination_deg, declination_deg : the local Earth field
+    drift : float              field drift, nT/min
+    gradient : float           field gradient, nT/m
+    dipole : dict or None      passing dipole (see desktop.sim.field.Field)
+    temp_c, temp_drift : float temperature at start (C) and its drift (C/min)
+    grid_rate : int or "auto"  analog grid, Hz (128 kHz / 1, 2, 4, 8 or 16); auto:
+                               max(8 kHz, 2 x rate), two or more samples per
+                               conversion and 4 kHz of analog bandwidth
+    dwell : float              hold per attitude for uniform / cap motions, s
+    """
+
+    DEFAULTS = dict(sensor="mag649", seed=0, motion="hand", motion_seed=1, seconds=120.0,
+                    rate=4000, rot_rate=1.0, coverage=1.0, noise=0.1, pink=0.0,
+                    bandwidth="preset", ideal=False, adc_noise=True, gain=1, vref_4v=False,
+                    field_nT=47_000.0, inclination_deg=62.0, declination_deg=3.0,
+                    drift=0.0, gradient=0.0, dipole=None, temp_c=25.0, temp_drift=0.0,
+                    grid_rate="auto", dwell=0.002)
+
+    def __init__(self, **kw):
+        unknown = set(kw) - set(self.DEFAULTS)
+        if unknown:
+            raise TypeError("unknown scenario settings: %s" % ", ".join(sorted(unknown)))
+        self.__dict__.update(dict(self.DEFAULTS, **kw))
+        if int(self.rate) not in RATES:
+            raise ValueError("rate must be one of the ADS1292 data rates %s SPS, got %r"
+                             % (", ".join(map(str, RATES)), self.rate))
+        if self.gain not in ads.GAINS:
+            raise ValueError("gain must be one of %s" % (sorted(ads.GAINS),))
+        if not 0.0 < self.coverage <= 1.0:
+            raise ValueError("coverage must be in (0, 1], got %r" % self.coverage)
+        if self.seconds <= 0:
+            raise ValueError("seconds must be positive")
+
+    def grid_hz(self):
+        """The analog grid rate in Hz."""
+        if self.grid_rate == "auto":
+            return max(8000, 2 * int(self.rate))
+        return int(self.grid_rate)
+
+    def to_dict(self):
+        return {k: getattr(self, k) for k in self.DEFAULTS}
+
+    def fluxgate(self):
+        over = {"noise_nT": self.noise, "pink_nT": self.pink}
+        if self.bandwidth != "preset":
+            over["bandwidth_hz"] = self.bandwidth
+        return Fluxgate(self.sensor, seed=self.seed, ideal=self.ideal, **over)
+
+    def field(self):
+        earth = earth_vector(self.field_nT, self.inclination_deg, self.declination_deg)
+        return Field(earth, self.drift, self.gradient, self.dipole)
+
+    def registers(self):
+        """(2, 12) register maps of chip A (X, Y) and chip B (Z, temperature)."""
+        dr = RATES.index(int(self.rate))
+        return [ads.standard_registers(dr, self.gain, (ads.MUX_NORMAL, ads.MUX_NORMAL), self.vref_4v),
+                ads.standard_registers(dr, self.gain, (ads.MUX_NORMAL, ads.MUX_TEMP), self.vref_4v)]
+
+    def rngs(self):
+        """Independent generators: motion, sensor noise, ADC noise of chip A and B."""
+        seq = np.random.SeedSequence([int(self.seed), int(self.motion_seed)])
+        noise, adc_a, adc_b = (np.random.default_rng(s) for s in seq.spawn(3))
+        return np.random.default_rng(int(self.motion_seed)), noise, adc_a, adc_b
+
+
+def _pink(rng, seconds, rms, rate=100.0):
+    """(K, 3) 1/f noise at `rate` Hz: equal-variance AR(1) terms an octave-pair apart."""
+    n = int(seconds * rate) + 2
+    out = np.zeros((n, 3))
+    for fc in (0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0):
+        a = float(np.exp(-2 * np.pi * fc / rate))
+        w = rng.standard_normal((n, 3)) * np.sqrt((1 - a * a)) / (1 - a)   # unit-variance AR(1)
+        out += lowpass(w, a, rng.standard_normal(3))
+    return out * (rms / max(float(out.std()), 1e-12))
+
+
+class AnalogChain:
+    """Computes the analog grid (ADC input volts and truth) chunk by chunk."""
+
+    def __init__(self, sc, motion, noise_rng, grid_sigma_nT):
+        self.sc, self.motion = sc, motion
+        self.field, self.sensor = sc.field(), sc.fluxgate()
+        self.noise_rng = noise_rng
+        self.grid_sigma = grid_sigma_nT
+        self.lp_state = None
+        self.pink = _pink(noise_rng, sc.seconds + 1, sc.pink) if sc.pink else None
+
+    def grid(self, g0, g1, step):
+        """Grid samples g0..g1-1: dict of volts (G, 3), temp (G,), truth arrays."""
+        t = np.arange(g0, g1) * (step / ads.F_MOD)
+        q = self.motion.orientation(t)
+        pos = self.motion.position(t, q)
+        if self.field.uniform:
+            bw = self.field.earth
+            bmag = np.full(len(t), np.linalg.norm(bw))
+        else:
+            bw = self.field.at(t, pos)
+            bmag = np.linalg.norm(bw, axis=1)
+        b = to_sensor(q, bw)
+        temp = self.sc.temp_c + self.sc.temp_drift * t / 60.0 if self.sc.temp_drift else \
+            np.full(len(t), float(self.sc.temp_c))
+        r = self.sensor.reading(b, temp if self.sc.temp_drift else float(self.sc.temp_c))
+        r, self.lp_state = self.sensor.bandlimit(r, ads.F_MOD / step, self.lp_state)
+        if self.grid_sigma:
+            r = r + self.noise_rng.standard_normal(r.shape) * self.grid_sigma
+        if self.pink is not None:
+            k = t * 100.0
+            i = np.minimum(k.astype(int), len(self.pink) - 2)
+            f = (k - i)[:, None]
+            r = r + self.pink[i] * (1 - f) + self.pink[i + 1] * f
+        return {"volts": self.sensor.to_volts(r), "temp": temp, "b": b, "q": q,
+                "pos": pos, "bmag": bmag, "t": t}
+
+
+def simulate(sc, chunk_seconds=8.0):
+    """Run a scenario; returns the capture as a dict (keys: desktop.sim.capture).
+
+    Parameters
+    ----------
+    sc : Scenario
+    chunk_seconds : float
+        Work in pieces of this length (bounds memory; results do not depend on it
+        beyond floating-point summation order of the sensor low-pass).
+    """
+    motion_rng, noise_rng, rng_a, rng_b = sc.rngs()
+    fdir = earth_vector(1.0, sc.inclination_deg, sc.declination_deg)
+    motion = make_motion(sc.motion, sc.seconds + 0.1, motion_rng, rate=sc.rot_rate,
+                         coverage=sc.coverage, field_dir=fdir, dwell=sc.dwell)
+    regs = sc.registers()
+    cfg_a, cfg_b = ads.Config(regs[0]), ads.Config(regs[1])
+    step = ads.F_MOD // sc.grid_hz()
+    d = cfg_a.decimation
+    first = ads.SETTLE_TICKS[cfg_a.dr]                  # START at tick 0
+    w = ads.sinc3_kernel(d, step, first % step)
+    # white sensor noise on the grid, scaled so each conversion shows `noise` rms
+    chain = AnalogChain(sc, motion, noise_rng, sc.noise / np.sqrt(np.sum(w ** 2)))
+    n_total = int((sc.seconds * ads.F_MOD - first) // d) + 1
+    per_chunk = max(int(chunk_seconds * cfg_a.rate), 1)
+    hist = len(w) - 1
+    out = {k: [] for k in ("codes", "b", "q", "pos", "bmag", "temp", "t")}
+    buf, buf_g0, g_done = None, 0, 0
+    for k0 in range(0, n_total, per_chunk):
+        n = min(per_chunk, n_total - k0)
+        ticks0 = first + k0 * d
+        g_last = (ticks0 + (n - 1) * d) // step
+        new = chain.grid(g_done, g_last + 1, step)
+        if buf is None:
+            buf, buf_g0 = new, 0
+        else:
+            keep = max(buf_g0, g_done - hist)
+            buf = {k: np.concatenate([v[keep - buf_g0:], new[k]]) for k, v in buf.items()}
+            buf_g0 = keep
+        g_done = g_last + 1
+        gt0 = buf_g0 * step
+        kw = dict(first_tick=ticks0, n=n, step=step, grid_tick0=gt0)
+        vol = buf["volts"]
+        ca = ads.convert(vol[:, :2], None, cfg_a, rng=rng_a if sc.adc_noise else ads.NO_NOISE, **kw)
+        cb = ads.convert(np.c_[vol[:, 2], np.zeros(len(vol))], buf["temp"], cfg_b,
+                         rng=rng_b if sc.adc_noise else ads.NO_NOISE, **kw)
+        out["codes"].append(np.concatenate([ca, cb], axis=1))
+        idx = (ticks0 + np.arange(n) * d) // step - buf_g0        # grid sample at each DRDY
+        for key, src in (("b", "b"), ("q", "q"), ("pos", "pos"), ("bmag", "bmag"),
+                         ("temp", "temp"), ("t", "t")):
+            out[key].append(buf[src][idx])
+    res = {k: np.concatenate(v) for k, v in out.items()}
+    res["t"] = (first + np.arange(n_total) * d) / ads.F_MOD       # DRDY times exactly
+    a, c = chain.sensor.raw_model()
+    return {
+        "codes": res["codes"],
+        "t": res["t"],
+        "nT_per_code": nT_per_code(cfg_a, chain.sensor.volts_per_nT_nominal),
+        "field_true": res["b"],
+        "magnitude_true": res["bmag"],
+        "quaternion": res["q"],
+        "position": res["pos"],
+        "temperature_c": res["temp"],
+        "sensor_matrix": a,
+        "sensor_offset": c,
+        "registers": np.array(regs, dtype=np.uint8),
+        "config": json.dumps(dict(sc.to_dict(), version=1, start_tick=0,
+                                  first_drdy_tick=first)),
+    }
+
+
+def nT_per_code(cfg, volts_per_nT):
+    """(3,) nominal field per code of X, Y, Z: LSB = VREF / (2^23 - 1) / gain [DS §8.3.8]."""
+    return np.full(3, cfg.vref / ads.FULL_SCALE_CODE / cfg.gain[0] / volts_per_nT)
