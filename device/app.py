@@ -1,0 +1,383 @@
+"""The application: ADC -> decimator -> (calibration session | survey), button, LED, serial.
+
+    App(board).run()      # main.py / code.py / the simulators all end here
+
+One cooperative main loop, no threads: drain the DRDY ring, feed each
+decimated sample to the calibration session and the survey averager, poll the
+button and the serial line, drive the LED, then idle until the next
+interrupt. Every state a user can see is also in `status`.
+"""
+
+import gc
+import json
+
+import config as cfgmod
+import store
+from acquisition import Decimator
+from ads1292 import ADS1292Pair, OVERFLOW, BADSYNC, FRAMES
+from button import Button, SHORT, LONG
+from led import Led
+import led as ledp
+from protocol import Protocol, ProtocolError, parse_value
+from survey import Survey, RotatingLog
+from shared.calibration import Calibration
+import calibrate
+
+FIRMWARE_VERSION = "0.1.0"
+_DRAIN = 64   # frames per loop pass: bounds the latency of button and serial
+
+
+def _r(x, nd=3):
+    """Round for JSON; None for non-finite (JSON has no NaN)."""
+    if x is None or x != x or x in (float("inf"), float("-inf")):
+        return None
+    return round(x, nd)
+
+
+class App:
+    def __init__(self, board):
+        self.board = board
+        self.proto = Protocol(self, board)
+        self.button = Button(board)
+        self.led = Led(board)
+        self.session = None
+        self.last_result = None
+        self.fault = None
+        self.stream = "off"
+        self.temp_c = None
+        self.cal_temp_warn = False
+        self.log = None
+        self.last_progress = board.ticks_ms()
+        self.boot_ms = board.ticks_ms()
+        self.quit = False
+        self._sample_cb = self._on_sample  # bound once: no allocation per loop pass
+        body, _src, problem = store.load(board.root, "config")
+        self.cfg, problems = cfgmod.from_dict(body if body is not None else {})
+        self.config_problems = problems
+        if body is None and _src is None and problem and not problem.startswith("no "):
+            self.config_problems.append(problem)
+        self.stream = self.cfg["stream"]
+        self._load_cal()
+        self.adc = None
+        self._start_adc()
+        self._setup_pipeline()
+        self.proto.event("boot", {"fw": FIRMWARE_VERSION, "proto": 1, "calibrated": self.cal is not None,
+                                  "cal_source": self.cal_source, "fault": self.fault})
+
+    # ****** setup ******
+    def _load_cal(self):
+        body, src, problem = store.load(self.board.root, "cal", Calibration.from_dict)
+        self.cal = Calibration.from_dict(body) if body is not None else None
+        self.cal_source = src
+        self.cal_problem = problem if (problem and not problem.startswith("no ")) else None
+
+    def _start_adc(self):
+        c = self.cfg
+        try:
+            if self.adc is None:
+                self.adc = ADS1292Pair(self.board, c["rate"], (c["gain_x"], c["gain_y"], c["gain_z"]), c["vref_4v"])
+                self.adc.begin()
+                self.board.attach_drdy(self.adc.isr)
+            else:
+                self.adc.reconfigure(c["rate"], (c["gain_x"], c["gain_y"], c["gain_z"]))
+            self.fault = None
+        except OSError as e:
+            self.fault = str(e)
+            self.led.set(ledp.FAULT)
+
+    def _setup_pipeline(self):
+        c = self.cfg
+        self.dec = Decimator(self.adc, c["decim"], c["window"])
+        self.sample_hz = c["rate"] / c["decim"]
+        self.survey = Survey(c, c["window"], self.sample_hz)
+        self.scale = (c["scale_x"], c["scale_y"], c["scale_z"])
+        if c["log"] and self.log is None:
+            self.log = RotatingLog(self.board.root, c["log_file_bytes"], c["log_files"], c["log_reserve_bytes"])
+        elif not c["log"] and self.log is not None:
+            self.log.close()
+            self.log = None
+        if not self.fault:
+            self.led.set(ledp.SURVEY if self.cal is not None else ledp.UNCALIBRATED)
+
+    # ****** main loop ******
+    def run(self):
+        b = self.board
+        while not self.quit and not b.quit_requested():
+            self.step()
+            if self.adc is None or self.adc.available() == 0:
+                b.idle()
+        if self.log is not None:
+            self.log.close()
+
+    def step(self):
+        if self.adc is not None and not self.fault:
+            self.dec.poll(self._sample_cb, _DRAIN)
+        ev = self.button.poll()
+        if ev == SHORT:
+            if self.session is None:
+                try:
+                    self._start_session()
+                except ProtocolError as e:
+                    self.proto.event("cal", {"state": "failed", "reason": e.code, "msg": str(e)})
+                    self.led.flash(ledp.FAILED)
+            else:
+                self._finish_session()
+        elif ev == LONG and self.session is not None:
+            self._cancel_session()
+        self.proto.poll()
+        s = self.session
+        if s is not None:
+            now = self.board.ticks_ms()
+            solved = s.tick(now, self.board.ticks_diff)
+            if self.board.ticks_diff(now, self.last_progress) >= 1000:
+                self.last_progress = now
+                self.proto.event("cal", s.progress())
+            # coverage is a pass over all cells: check it only after a provisional solve
+            if solved and s.ready():
+                self.led.set(ledp.ENOUGH)
+                if self.cfg["auto_finish"]:
+                    self._finish_session()
+            elif s.elapsed_s(now, self.board.ticks_diff) > self.cfg["max_cal_s"]:
+                self._finish_session()
+        self.led.update()
+
+    def _on_sample(self, sx, sy, sz, st):
+        w = self.cfg["window"]
+        self.temp_c = self.adc.temperature_c(st / w)
+        s = self.session
+        if s is not None:
+            s.sample(sx, sy, sz)
+            s.add_temperature(self.temp_c)
+        blk = self.survey.sample(sx, sy, sz, st)
+        if blk is not None:
+            self._output(blk)
+
+    def _output(self, blk):
+        x, y, z, tc = blk
+        temp = self.adc.temperature_c(tc)
+        t = self.board.ticks_ms()
+        cal = self.cal
+        if cal is not None:
+            bx, by, bz = cal.correct(x, y, z)
+        else:
+            k = self.scale
+            bx, by, bz = x * k[0], y * k[1], z * k[2]
+        f = (bx * bx + by * by + bz * bz) ** 0.5
+        warn = None
+        if cal is not None:
+            tcal = cal.meta.get("temperature_c")
+            self.cal_temp_warn = tcal is not None and abs(temp - tcal) > self.cfg["temp_warn_c"]
+            if self.cal_temp_warn:
+                warn = "temperature %.1f C differs from calibration %.1f C" % (temp, tcal)
+        if self.stream == "corrected":
+            self.proto.event("data", {"t": t, "b": [_r(bx), _r(by), _r(bz)], "f": _r(f), "temp": _r(temp, 2),
+                                      "c": [_r(x, 2), _r(y, 2), _r(z, 2)], "cal": cal is not None, "warn": warn})
+        elif self.stream == "raw":
+            self.proto.event("raw", {"t": t, "c": [_r(x, 2), _r(y, 2), _r(z, 2)], "temp": _r(temp, 2)})
+        if self.log is not None and self.session is None:
+            self.log.write("%d,%.3f,%.3f,%.3f,%.3f,%.2f\n" % (t, bx, by, bz, f, temp))
+
+    # ****** calibration flow ******
+    def _start_session(self):
+        if self.fault:
+            raise ProtocolError("fault", "ADC fault: " + self.fault)
+        c = self.cfg
+        period_ms = 1000.0 * c["decim"] / c["rate"]
+        self.session = calibrate.Session(c, self.scale, c["window"], period_ms, None, self.board.ticks_ms())
+        self.last_progress = self.board.ticks_ms()
+        self.led.set(ledp.COLLECTING)
+        self.proto.event("cal", self.session.progress())
+
+    def _finish_session(self):
+        s = self.session
+        self.session = None
+        gc.collect()
+        cal, reason, msg = s.finish()
+        result = {"state": s.state, "n": s.fit.n, "coverage": _r(s.coverage())}
+        if cal is None:
+            result["reason"] = reason
+            result["msg"] = msg
+            self.led.flash(ledp.FAILED)
+        else:
+            cal.meta["firmware"] = FIRMWARE_VERSION
+            cal.meta["uptime_ms"] = self.board.ticks_diff(self.board.ticks_ms(), self.boot_ms)
+            t = self.board.time()
+            if t is not None:
+                cal.meta["time"] = t
+            cal.meta["rate"] = self.cfg["rate"]
+            cal.meta["scale"] = list(self.scale)
+            saved, err = self._install(cal)
+            result["saved"] = saved
+            if err:
+                result["save_error"] = err
+            d = cal.diagnostics
+            for k in ("rms", "predicted_error", "observability"):
+                result[k] = _r(d.get(k), 4)
+            result["field"] = _r(cal.field, 2)
+            self.led.flash(ledp.DONE)
+        self.last_result = result
+        self.proto.event("cal", result)
+        self.led.set(ledp.SURVEY if self.cal is not None else ledp.UNCALIBRATED)
+        return result
+
+    def _cancel_session(self):
+        s = self.session
+        self.session = None
+        s.cancel()
+        self.last_result = {"state": s.state, "reason": s.reason, "msg": s.message}
+        self.proto.event("cal", self.last_result)
+        self.led.flash(ledp.FAILED)
+        self.led.set(ledp.SURVEY if self.cal is not None else ledp.UNCALIBRATED)
+
+    def _install(self, cal):
+        """Make cal the active calibration and store it; (saved, error)."""
+        self.cal = cal
+        self.cal_source = "new"
+        self.cal_problem = None
+        try:
+            store.save(self.board.root, "cal", cal.to_dict())
+            return True, None
+        except OSError as e:
+            return False, str(e)
+
+    # ****** protocol commands: each returns a dict of reply fields ******
+    def cmd_version(self, args):
+        import sys
+        return {"fw": FIRMWARE_VERSION, "proto": 1, "runtime": self.board.name,
+                "impl": sys.implementation.name}
+
+    def cmd_status(self, args):
+        st = self.adc.state if self.adc is not None else None
+        out = {
+            "state": "fault" if self.fault else ("calibrating" if self.session else "survey"),
+            "fault": self.fault,
+            "calibrated": self.cal is not None,
+            "cal_source": self.cal_source,
+            "cal_problem": self.cal_problem,
+            "config_problems": self.config_problems,
+            "stream": self.stream,
+            "uptime_ms": self.board.ticks_diff(self.board.ticks_ms(), self.boot_ms),
+            "temp": _r(self.temp_c, 2),
+            "temp_warn": self.cal_temp_warn,
+            "last_cal": self.last_result,
+        }
+        if st is not None:
+            out["frames"] = st[FRAMES]
+            out["overflow"] = st[OVERFLOW]
+            out["badsync"] = st[BADSYNC]
+            out["gaps"] = self.dec.gaps
+            out["samples"] = self.dec.samples
+        if self.session is not None:
+            out["cal"] = self.session.progress()
+        if self.log is not None:
+            out["log"] = {"lines": self.log.lines, "error": self.log.error}
+        try:
+            out["mem_free"] = gc.mem_free()
+        except AttributeError:  # CPython
+            pass
+        return out
+
+    def cmd_get_cal(self, args):
+        return {"cal": self.cal.to_dict() if self.cal is not None else None}
+
+    def cmd_set_cal(self, args):
+        if self.session is not None:
+            raise ProtocolError("busy", "calibration in progress; cancel-cal first")
+        if not args.startswith("{"):
+            raise ProtocolError("bad_argument", "set-cal takes a calibration JSON object")
+        try:
+            d = json.loads(args)
+        except ValueError:
+            raise ProtocolError("bad_json", "set-cal argument is not valid JSON")
+        cal = Calibration.from_dict(d)  # ValueError names the problem
+        problem = calibrate.check_calibration(cal, self.cfg, self.scale)
+        if problem:
+            raise ProtocolError(problem[0], problem[1])
+        cal.meta["source"] = "set-cal"
+        saved, err = self._install(cal)
+        if not saved:
+            raise ProtocolError("io_error", "calibration active but not saved: %s" % err)
+        self.led.set(ledp.SURVEY)
+        return {"saved": True}
+
+    def cmd_clear_cal(self, args):
+        if self.session is not None:
+            raise ProtocolError("busy", "calibration in progress; cancel-cal first")
+        store.remove(self.board.root, "cal")
+        self.cal = None
+        self.cal_source = None
+        self.led.set(ledp.UNCALIBRATED)
+        return {}
+
+    def cmd_start_cal(self, args):
+        if self.session is not None:
+            raise ProtocolError("busy", "calibration already in progress")
+        self._start_session()
+        return {}
+
+    def cmd_finish_cal(self, args):
+        if self.session is None:
+            raise ProtocolError("not_calibrating", "no calibration in progress")
+        r = self._finish_session()
+        return {"result": r}
+
+    def cmd_cancel_cal(self, args):
+        if self.session is None:
+            raise ProtocolError("not_calibrating", "no calibration in progress")
+        self._cancel_session()
+        return {}
+
+    def cmd_stream(self, args):
+        words = args.split()
+        if words[:1] == ["on"]:
+            words = words[1:] or ["corrected"]
+        if len(words) != 1 or words[0] not in ("off", "raw", "corrected"):
+            raise ProtocolError("bad_argument", "stream takes: on [raw|corrected] | raw | corrected | off")
+        self.stream = words[0]
+        return {"stream": self.stream}
+
+    def cmd_config(self, args):
+        words = args.split(None, 2)
+        if not words or words[0] not in ("get", "set"):
+            raise ProtocolError("bad_argument", "config get [KEY] | config set KEY VALUE")
+        if words[0] == "get":
+            if len(words) == 1:
+                return {"config": self.cfg}
+            key = words[1]
+            if key not in self.cfg:
+                raise ProtocolError("unknown_key", "unknown config key %r" % key[:40])
+            return {"key": key, "value": self.cfg[key]}
+        if len(words) != 3:
+            raise ProtocolError("bad_argument", "config set KEY VALUE")
+        if self.session is not None:
+            raise ProtocolError("busy", "calibration in progress; cancel-cal first")
+        key = words[1]
+        if key not in self.cfg:
+            raise ProtocolError("unknown_key", "unknown config key %r" % key[:40])
+        new = dict(self.cfg)
+        try:
+            new[key] = cfgmod.check(key, parse_value(words[2]))
+            cfgmod.cross_check(new)
+        except ValueError as e:
+            raise ProtocolError("bad_value", str(e))
+        store.save(self.board.root, "config", cfgmod.changed(new))
+        old = self.cfg
+        self.cfg = new
+        if key == "stream":
+            self.stream = new[key]
+        if new["rate"] != old["rate"] or (new["gain_x"], new["gain_y"], new["gain_z"]) != (old["gain_x"], old["gain_y"], old["gain_z"]):
+            self._start_adc()
+        self._setup_pipeline()
+        return {"key": key, "value": new[key]}
+
+
+
+def start(hal):
+    """Boot on real hardware: config.json -> hal.Board(cfg) -> App, unless the button is held."""
+    body, _src, _problem = store.load("", "config")
+    cfg, _problems = cfgmod.from_dict(body or {})
+    board = hal.Board(cfg)
+    if board.button():
+        print("fluxcal: button held at boot, staying in the REPL")
+        return None
+    App(board).run()

@@ -1,0 +1,147 @@
+"""Board configuration: one JSON file (config.json) over documented defaults.
+
+Every key has a default, a type and a range; `set_value` validates one key,
+`load` keeps the defaults for anything missing or invalid and reports it, so a
+bad file never stops the device. docs/firmware.md lists the keys and why each
+default was chosen.
+"""
+
+import json
+
+# key: (default, kind, lo, hi). kind: "int", "float", "bool", "pin", "scale", "opt_float", "choice:a|b"
+SCHEMA = {
+    # wiring (pin names are HAL specific: GPIO numbers on MicroPython, board names on CircuitPython)
+    "spi_id": (0, "int", 0, 3),
+    "pin_sck": (18, "pin", 0, 0),
+    "pin_mosi": (19, "pin", 0, 0),
+    "pin_miso": (16, "pin", 0, 0),
+    "pin_cs0": (17, "pin", 0, 0),
+    "pin_cs1": (20, "pin", 0, 0),
+    "pin_drdy": (21, "pin", 0, 0),
+    "pin_start": (22, "pin", 0, 0),
+    "pin_reset": (26, "pin", 0, 0),
+    "pin_button": (15, "pin", 0, 0),
+    "pin_led": (25, "pin", 0, 0),
+    # ADC: 2000 SPS: the nearest ADS1292 rate below the paper's 3 kHz that keeps
+    # the ISR under ~25 % of a 133 MHz M0+ (docs/firmware.md, duty cycle)
+    "rate": (2000, "int", 125, 8000),
+    "gain_x": (1, "int", 1, 12),
+    "gain_y": (1, "int", 1, 12),
+    "gain_z": (1, "int", 1, 12),
+    "vref_4v": (False, "bool", 0, 0),
+    # front end: nT per ADC code per axis = (VREF / (2^23 - 1) / gain) / (V per nT at the pin).
+    # Default: Mag649 (0.1 V/uT, +-10 V) through a 4.5:1 divider, gain 1, 2.42 V:
+    # 2.885e-7 V / 2.222e-5 V/nT = 0.012983 nT/code (full scale +-109 uT).
+    "scale_x": (0.012983, "float", 1e-6, 1e3),
+    "scale_y": (0.012983, "float", 1e-6, 1e3),
+    "scale_z": (0.012983, "float", 1e-6, 1e3),
+    # decimation: 4-frame (2 ms) boxcar every 8 frames -> 250 samples/s to the gates
+    "decim": (8, "int", 1, 256),
+    "window": (4, "int", 1, 256),
+    # calibration
+    "field_nt": (None, "opt_float", 1000.0, 100000.0),  # local field if known (e.g. IGRF)
+    "field_tol": (0.05, "float", 0.001, 0.5),     # accepted |fitted/configured - 1|
+    "gate_rate_dps": (540.0, "float", 10.0, 5000.0),  # rotation-rate gate (smearing)
+    "cells": (4, "int", 2, 12),                   # 6*cells^2 coverage cells
+    "cell_cap": (24, "int", 1, 10000),            # samples per cell into the fit
+    "min_coverage": (0.5, "float", 0.05, 1.0),    # to allow auto-finish
+    "target_error_nt": (1.0, "float", 0.01, 1000.0),  # predicted error to auto-finish
+    "auto_finish": (True, "bool", 0, 0),
+    "max_rms_nt": (5.0, "float", 0.01, 10000.0),  # acceptance: fit residual
+    "min_observability": (0.02, "float", 0.0, 1.0),
+    "max_predicted_nt": (5.0, "float", 0.01, 10000.0),
+    "outlier_nt": (50.0, "float", 1.0, 100000.0),  # disturbance gate vs provisional fit
+    "solve_every_s": (5, "int", 1, 600),          # provisional solve period
+    "max_cal_s": (300, "int", 10, 3600),
+    # survey
+    "survey_hz": (10, "int", 1, 100),             # output rate (0.1 s average, paper IV.C)
+    "temp_warn_c": (5.0, "float", 0.1, 100.0),
+    "log": (False, "bool", 0, 0),
+    "log_file_bytes": (65536, "int", 1024, 10000000),
+    "log_files": (4, "int", 1, 100),
+    "log_reserve_bytes": (65536, "int", 0, 100000000),
+    "stream": ("off", "choice:off|raw|corrected", 0, 0),
+}
+
+
+def check(key, value):
+    """Return the validated value or raise ValueError naming the key and the problem."""
+    if key not in SCHEMA:
+        raise ValueError("unknown config key %r" % (key,))
+    default, kind, lo, hi = SCHEMA[key]
+    if kind == "bool":
+        if value is True or value is False:
+            return value
+        raise ValueError("%s must be true or false" % key)
+    if kind == "pin":
+        if isinstance(value, (int, str)) and not isinstance(value, bool):
+            return value
+        raise ValueError("%s must be a pin number or name" % key)
+    if kind.startswith("choice:"):
+        options = kind[7:].split("|")
+        if value in options:
+            return value
+        raise ValueError("%s must be one of %s" % (key, ", ".join(options)))
+    if kind == "opt_float" and value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError("%s must be a number" % key)
+    if kind == "int":
+        if value != int(value):
+            raise ValueError("%s must be an integer" % key)
+        value = int(value)
+    else:
+        value = float(value)
+    if not (lo <= value <= hi):  # also rejects NaN
+        raise ValueError("%s=%r out of range %r..%r" % (key, value, lo, hi))
+    return value
+
+
+def defaults():
+    d = {}
+    for k in SCHEMA:
+        d[k] = SCHEMA[k][0]
+    return d
+
+
+def cross_check(cfg):
+    """Relations between keys; ValueError on the first that fails."""
+    if cfg["window"] > cfg["decim"]:
+        raise ValueError("window (%d) must not exceed decim (%d)" % (cfg["window"], cfg["decim"]))
+    from ads1292 import rate_code, gain_code
+    rate_code(cfg["rate"])
+    for k in ("gain_x", "gain_y", "gain_z"):
+        gain_code(cfg[k])
+
+
+def from_dict(d):
+    """Defaults overlaid with the valid entries of d; returns (cfg, [problems])."""
+    cfg = defaults()
+    problems = []
+    if not isinstance(d, dict):
+        return cfg, ["config is not an object"]
+    for k in d:
+        try:
+            cfg[k] = check(k, d[k])
+        except ValueError as e:
+            problems.append(str(e))
+    try:
+        cross_check(cfg)
+    except ValueError as e:
+        problems.append(str(e))
+        for k in ("rate", "decim", "window", "gain_x", "gain_y", "gain_z"):
+            cfg[k] = SCHEMA[k][0]
+    return cfg, problems
+
+
+def changed(cfg):
+    """Only the keys that differ from the defaults (what config.json stores)."""
+    out = {}
+    for k in cfg:
+        if cfg[k] != SCHEMA[k][0]:
+            out[k] = cfg[k]
+    return out
+
+
+def dumps(cfg):
+    return json.dumps(changed(cfg))

@@ -1,0 +1,155 @@
+"""MicroPython HAL (rp2, stm32, esp32): machine.SPI mode 1, DRDY on Pin.irq.
+
+The contract is documented in hal_sim.py. DRDY uses a hard IRQ where the port
+accepts `hard=True` (rp2, stm32); esp32's Pin.irq has no `hard` argument and
+always schedules the handler (a soft IRQ: it may run a few ms late, which the
+ring absorbs). USB serial is sys.stdin/sys.stdout with Ctrl-C disabled while
+the app runs, so a stray 0x03 on the wire cannot stop the instrument.
+"""
+
+import sys
+import time
+
+import machine
+import micropython
+
+try:
+    import select
+except ImportError:
+    select = None
+
+micropython.alloc_emergency_exception_buf(100)  # a traceback from the ISR, not a second fault
+
+
+class Board:
+    REG_BAUD = 1000000    # <= 2 fCLK = 1.024 MHz during register access, §8.3.7
+    DATA_BAUD = 8000000   # RDATAC reads may run up to 20 MHz (tSCLK 50 ns, §6.6)
+
+    def __init__(self, cfg, root="/"):
+        P = machine.Pin
+        self.root = root if root != "/" else ""
+        self.name = "micropython-" + sys.platform
+        self._spi_id = cfg["spi_id"]
+        self._pins = (P(cfg["pin_sck"]), P(cfg["pin_mosi"]), P(cfg["pin_miso"]))
+        self.spi = None
+        self.set_spi_rate(self.REG_BAUD)
+        self._cs = (P(cfg["pin_cs0"], P.OUT, value=1), P(cfg["pin_cs1"], P.OUT, value=1))
+        self._start = P(cfg["pin_start"], P.OUT, value=0)
+        self._reset = P(cfg["pin_reset"], P.OUT, value=1)
+        self._drdy = P(cfg["pin_drdy"], P.IN, P.PULL_UP)
+        self._button = P(cfg["pin_button"], P.IN, P.PULL_UP)  # active low to GND
+        self._led = P(cfg["pin_led"], P.OUT, value=0)
+        self._mv = {}
+        self._poll = None
+        if select is not None:
+            self._poll = select.poll()
+            self._poll.register(sys.stdin, select.POLLIN)
+        self._rbuf = bytearray(64)
+        try:
+            micropython.kbd_intr(-1)
+        except AttributeError:
+            pass
+
+    # bus
+    def set_spi_rate(self, hz):
+        sck, mosi, miso = self._pins
+        # CPOL=0, CPHA=1: DIN latched on the falling edge (§8.5.1.3-4)
+        self.spi = machine.SPI(self._spi_id, baudrate=hz, polarity=0, phase=1, bits=8,
+                               firstbit=machine.SPI.MSB, sck=sck, mosi=mosi, miso=miso)
+        self._write = self.spi.write
+        self._readinto = self.spi.readinto
+
+    def _view(self, buf, n):
+        if n == len(buf):
+            return buf
+        return memoryview(buf)[:n]
+
+    def spi_write(self, chip, buf, n):
+        cs = self._cs[chip]
+        cs(0)
+        try:
+            self._write(self._view(buf, n))
+            time.sleep_us(8)   # 4 tCLK after the last SCLK before CS rises (§8.5.2)
+        finally:
+            cs(1)
+
+    def spi_write_readinto(self, chip, wbuf, rbuf, n):
+        cs = self._cs[chip]
+        cs(0)
+        try:
+            self.spi.write_readinto(self._view(wbuf, n), self._view(rbuf, n))
+            time.sleep_us(8)
+        finally:
+            cs(1)
+
+    def spi_readinto(self, chip, buf):
+        # ISR path: no allocation (bound methods cached in set_spi_rate)
+        cs = self._cs[chip]
+        cs(0)
+        self._readinto(buf, 0)   # DIN held low while reading (§8.5.1.5)
+        cs(1)
+
+    # pins
+    def set_start(self, v):
+        self._start(1 if v else 0)
+
+    def set_reset(self, v):
+        self._reset(1 if v else 0)
+
+    def led(self, on):
+        self._led(1 if on else 0)
+
+    def button(self):
+        return self._button() == 0
+
+    def drdy(self):
+        return self._drdy() == 0
+
+    def attach_drdy(self, handler):
+        try:
+            self._drdy.irq(handler=handler, trigger=machine.Pin.IRQ_FALLING, hard=True)
+        except TypeError:  # esp32: no hard IRQs; the handler is scheduled
+            self._drdy.irq(handler=handler, trigger=machine.Pin.IRQ_FALLING)
+
+    # time
+    def ticks_ms(self):
+        return time.ticks_ms()
+
+    def ticks_us(self):
+        return time.ticks_us()
+
+    def ticks_diff(self, a, b):
+        return time.ticks_diff(a, b)
+
+    def sleep_us(self, us):
+        time.sleep_us(us)
+
+    def sleep_ms(self, ms):
+        time.sleep_ms(ms)
+
+    def time(self):
+        t = time.time()
+        return t if t > 1600000000 else None   # no RTC set: unknown, not 2000-01-01
+
+    def quit_requested(self):
+        return False
+
+    def idle(self):
+        machine.idle()   # sleeps until the next interrupt (DRDY within 1/rate s)
+
+    # serial (USB CDC)
+    def serial_read(self):
+        if self._poll is None or not self._poll.poll(0):
+            return None
+        n = 0
+        rd = sys.stdin.buffer.read
+        while n < len(self._rbuf) and self._poll.poll(0):
+            self._rbuf[n] = rd(1)[0]
+            n += 1
+        return bytes(self._rbuf[:n])
+
+    def serial_write(self, data):
+        sys.stdout.buffer.write(data)
+
+    def log(self, text):
+        pass

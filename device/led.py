@@ -1,0 +1,62 @@
+"""Status LED patterns, driven from the main loop by time (no timers needed).
+
+A pattern is a tuple of on/off durations in ms, repeated. One glance tells
+the operator the state (docs/firmware.md has the table):
+"""
+
+UNCALIBRATED = (100, 1900)            # short blip every 2 s
+SURVEY = (1000, 1000)                 # calm 0.5 Hz: calibrated, measuring
+COLLECTING = (250, 250)               # 2 Hz: keep rotating
+ENOUGH = (60, 90)                     # fast flicker: coverage reached, press to finish
+DONE = (2000, 0)                      # solid 2 s: calibration accepted
+FAILED = (100, 100, 100, 100, 100, 100, 800, 400)  # triple blink, twice
+FAULT = (50, 50)                      # ADC not answering
+
+
+class Led:
+    def __init__(self, board):
+        self.board = board
+        self.base = UNCALIBRATED
+        self._pattern = UNCALIBRATED
+        self._until = None      # a one-shot pattern reverts to base at this tick
+        self._start = board.ticks_ms()
+
+    def set(self, pattern):
+        """Change the steady pattern (a one-shot in progress finishes first)."""
+        if pattern is not self.base:
+            self.base = pattern
+            if self._until is None:
+                self._pattern = pattern
+                self._start = self.board.ticks_ms()
+
+    def flash(self, pattern, ms=None):
+        """Show a pattern once (or for ms), then return to the steady one."""
+        b = self.board
+        self._pattern = pattern
+        self._start = b.ticks_ms()
+        total = 0
+        for d in pattern:
+            total += d
+        self._until = (ms if ms is not None else total) or 1
+
+    def update(self):
+        b = self.board
+        now = b.ticks_ms()
+        age = b.ticks_diff(now, self._start)
+        if self._until is not None and age >= self._until:
+            self._until = None
+            self._pattern = self.base
+            self._start = now
+            age = 0
+        p = self._pattern
+        period = 0
+        for d in p:
+            period += d
+        t = age % period if period else 0
+        on = True
+        for d in p:
+            if t < d:
+                break
+            t -= d
+            on = not on
+        b.led(on)
