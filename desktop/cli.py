@@ -18,6 +18,8 @@ COMMANDS = {
     "fit": "fit",
     "correct": "correct",
     "demo": "demo",
+    "simulate": "simulate",
+    "experiment": "experiment",
 }
 
 

@@ -193,3 +193,34 @@ def test_faults_status_corrupt_and_bit_flips():
     assert chip.drdy is False
     with pytest.raises(TimeoutError):
         chip.wait_drdy(0.01)
+
+
+def test_two_chips_on_one_bus_follow_the_shared_clock():
+    from desktop.sim.board import Handheld
+    from desktop.sim.scenario import Scenario
+    sc = Scenario(seconds=0.3, rate=1000, motion="hand")
+    hw = Handheld(sc, t0=0.0)
+    bus = hw.bus
+    bus.advance(0.05)
+    for i, regs in enumerate(sc.registers()):
+        bus.select(i)
+        bus.transfer([A.SDATAC, A.WREG | 1, 10] + regs[1:12] + [A.RDATAC])
+        bus.select(None)
+    bus.start = True
+    rows = []
+    for _ in range(100):
+        bus.wait_drdy(0)
+        row = []
+        for i in (0, 1):
+            bus.select(i)
+            row += A.parse_frame(bus.transfer(bytes(9)))[1]
+        bus.select(None)
+        rows.append(row)
+    assert hw.chips[0].tick == hw.chips[1].tick
+    _, _, adc_a, adc_b = sc.rngs()
+    ref = [A.convert(c._volts, hw.grid["temp"], A.Config(c.registers), n=100, rng=rng, step=c._step,
+                     first_tick=c.start_tick + A.SETTLE_TICKS[3], grid_tick0=c._grid_tick0)
+           for c, rng in zip(hw.chips, (adc_a, adc_b))]
+    assert np.array_equal(np.array(rows), np.concatenate(ref, axis=1))
+    temp = A.volts_to_temperature(A.codes_to_volts(np.array(rows)[:, 3], 1))
+    assert abs(temp.mean() - 25.0) < 0.05

@@ -429,22 +429,31 @@ class ADS1292:
         self._ticks_f += seconds * F_MOD
         self._run_until(int(self._ticks_f + 1e-6))
 
+    def next_drdy_tick(self, timeout=1.0):
+        """Tick of the next DRDY falling edge; TimeoutError (after letting
+        `timeout` s pass) if none comes within it (not started, standby, chip
+        absent or DRDY stuck)."""
+        if self._drdy_dead() or self._next_drdy is None or self.standby \
+                or self._next_drdy - self.tick > timeout * F_MOD:
+            self.advance(timeout)
+            raise TimeoutError("no DRDY within %.3f s" % timeout)
+        return self._next_drdy
+
+    def advance_to_tick(self, tick):
+        """Let time pass up to modulator tick `tick` (no-op if already there)."""
+        if tick > self._ticks_f:
+            self._ticks_f = float(tick)
+        self._run_until(max(tick, self.tick))
+
     def wait_drdy(self, timeout=1.0):
         """Advance to the next DRDY falling edge; return the seconds waited.
 
-        Raises TimeoutError if no conversion completes within `timeout` s
-        (not started, standby, chip absent or DRDY stuck).
+        Raises TimeoutError if no conversion completes within `timeout` s.
+        On a bus use :meth:`SPIBus.wait_drdy`, which moves every chip's clock.
         """
-        if self._drdy_dead() or self._next_drdy is None or self.standby:
-            self.advance(timeout)
-            raise TimeoutError("no DRDY within %.3f s" % timeout)
-        wait = max(self._next_drdy - self.tick, 0)
-        if wait > timeout * F_MOD:
-            self.advance(timeout)
-            raise TimeoutError("no DRDY within %.3f s" % timeout)
-        self._ticks_f = float(self._next_drdy)
-        self._run_until(self._next_drdy)
-        return wait / F_MOD
+        start = self.tick
+        self.advance_to_tick(self.next_drdy_tick(timeout))
+        return (self.tick - start) / F_MOD
 
     def _run_until(self, target):
         while self._next_drdy is not None and self._next_drdy <= target and not self.standby:
@@ -731,5 +740,22 @@ class SPIBus:
             chip.start = level
 
     def advance(self, seconds):
+        """Let time pass for every chip."""
         for chip in self.chips:
             chip.advance(seconds)
+
+    def wait_drdy(self, index=0, timeout=1.0):
+        """Advance all chips to the next DRDY of chip `index` (the one wired to
+        the MCU); return the seconds waited. TimeoutError as ADS1292.wait_drdy."""
+        chip = self.chips[index]
+        start = chip.tick
+        try:
+            tick = chip.next_drdy_tick(timeout)
+        except TimeoutError:
+            for other in self.chips:
+                if other is not chip:
+                    other.advance(timeout)
+            raise
+        for c in self.chips:
+            c.advance_to_tick(tick)
+        return (tick - start) / F_MOD

@@ -4,7 +4,7 @@
     hw = Handheld(Scenario(seconds=150, motion="hand"))
     hw.bus.select(0); hw.bus.transfer(b"\\x11"); hw.bus.select(None)   # chip A: SDATAC
     hw.bus.start = True                 # shared START line
-    hw.chips[0].wait_drdy()             # DRDY of chip A is the one wired to the MCU
+    hw.bus.wait_drdy(0)                 # DRDY of chip A is wired to the MCU; all clocks move
     hw.advance(0.001)                   # time passes for both chips
 
 Chip A (bus index 0) gets the X and Y front-end outputs, chip B (index 1) Z and
