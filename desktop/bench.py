@@ -106,6 +106,29 @@ def micropython_cost(n):
     print("| add() | solve() | accumulator heap | solve iterations | targets |")
     print("|---|---|---|---|---|")
     print("| %.1f us | %.1f ms | %d bytes | %d | add <= 40 us, solve <= 200 ms, state <= 4 KB |" % (out["add_us"], out["solve_ms"], out["state_bytes"], out["iterations"]))
+    heap = smallest_heap(exe)
+    if heap:
+        print("\nSmallest MicroPython heap in which import + 1000 add() + solve() succeed (bisected with -X heapsize, modules as .mpy): %d KB. Of that, importing shared.fit takes ~40 KB of bytecode, which freezing the modules into the firmware (device/manifest.py) moves to flash." % heap)
+
+
+def smallest_heap(exe):
+    import tempfile
+
+    mpy_cross = os.path.join(os.path.dirname(exe), "mpy-cross")
+    with tempfile.TemporaryDirectory() as tmp:
+        os.mkdir(os.path.join(tmp, "shared"))
+        for name in os.listdir(os.path.join(ROOT, "shared")):
+            if name.endswith(".py"):
+                subprocess.run([mpy_cross, "-o", os.path.join(tmp, "shared", name[:-3] + ".mpy"), os.path.join(ROOT, "shared", name)], check=True)
+        script = os.path.join(ROOT, "desktop", "micropython_heap.py")
+        lo, hi = 8, 512  # KB
+        if "ok" not in subprocess.run([exe, "-X", "heapsize=%dK" % hi, script, tmp], capture_output=True, text=True).stdout:
+            return None
+        while hi - lo > 2:
+            mid = (lo + hi) // 2
+            ok = "ok" in subprocess.run([exe, "-X", "heapsize=%dK" % mid, script, tmp], capture_output=True, text=True).stdout
+            lo, hi = (lo, mid) if ok else (mid, hi)
+        return hi
 
 
 def main(argv=None):
