@@ -1,12 +1,6 @@
 """Solve the ellipsoid fit from exact power sums (used by shared.fit.EllipsoidFit.solve).
 
-Model (paper eq. 2): h_c = M (h - b), |h_c| = R for every orientation. With
-A = M^T M / R^2 each sample gives the residual
-
-    r = v^T A v - 1,   v = (h - b) / 2^e            (1)
-
-(|M(h-b)|^2 - R^2 normalised by R^2; 2^e is a power-of-two frame scale).
-We minimise the MAP objective
+With the residuals r of shared.quadric (eq. 1) we minimise the MAP objective
 
     L(A, b) = N log(sum r^2) + sum_k rho_k^2         (2)
 
@@ -28,27 +22,9 @@ CircuitPython floats and doubles therefore reach the same fixed point.
 import math
 
 from shared import linalg
-from shared.moments import INDEX, bit_length, mean_centre, shifted, to_float
-
-FRAC = 40  # fractional bits of the fixed-point parameters (relative 1e-12)
-
-# The quadric terms w(v) with w.a = v^T A v, a = (A11, A22, A33, A12, A13, A23).
-_W_EXP = ((2, 0, 0), (0, 2, 0), (0, 0, 2), (1, 1, 0), (1, 0, 1), (0, 1, 1))
-_W_C = (1, 1, 1, 2, 2, 2)
-_UNIT = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
-_PAIR = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
-
-
-def _add(e1, e2):
-    return (e1[0] + e2[0], e1[1] + e2[1], e1[2] + e2[2])
-
-
-_IDX4 = [[INDEX[_add(_W_EXP[m], _W_EXP[n])] for n in range(6)] for m in range(6)]
-_C4 = [[_W_C[m] * _W_C[n] for n in range(6)] for m in range(6)]
-_IDX3 = [[INDEX[_add(_UNIT[i], _W_EXP[n])] for n in range(6)] for i in range(3)]
-_IDX2 = [INDEX[e] for e in _W_EXP]
-_IDX1 = [INDEX[e] for e in _UNIT]
-_IDX2M = [[INDEX[_add(_UNIT[i], _UNIT[j])] for j in range(3)] for i in range(3)]
+from shared.moments import INDEX, bit_length, to_float
+from shared.prior import Prior, make_prior
+from shared.quadric import FRAC, UNIT, W_C, W_EXP, Problem, add_exp, sym
 
 # Icosahedron vertices: a spherical 5-design, so averaging a degree-4
 # polynomial of the direction over these 12 points is exact (used for the
@@ -61,6 +37,11 @@ for _s1 in (1.0, -1.0):
         _ICO.append((0.0, _s1 / _NORM, _s2 * _PHI / _NORM))
         _ICO.append((_s1 / _NORM, _s2 * _PHI / _NORM, 0.0))
         _ICO.append((_s2 * _PHI / _NORM, 0.0, _s1 / _NORM))
+
+# Residual rms above this share of the field is not a distorted sphere: the
+# noisiest real MEMS log here (QMC5883L) scatters 6 % after the best fit, a
+# hyperboloid 19 %.
+MAX_MISFIT = 0.1
 
 TOO_FEW_SAMPLES = "too_few_samples"
 DEGENERATE_COVERAGE = "degenerate_coverage"
@@ -83,151 +64,6 @@ def _log1p(x):
     if -1e-4 < x < 1e-4:
         return x - x * x / 2.0 + x * x * x / 3.0
     return math.log(1.0 + x)
-
-
-def _sym(a):
-    return [[a[0], a[3], a[4]], [a[3], a[1], a[5]], [a[4], a[5], a[2]]]
-
-
-class _Problem:
-    """The fit in the frame v = (h - C) / 2^e, parameters as fixed-point ints."""
-
-    def __init__(self, sums, num):
-        self.num = num
-        self.n = sums[0]
-        self.nf = num(float(self.n))
-        self.centre = mean_centre(sums)
-        self.u = shifted(sums, 1, self.centre)  # exact sums of h - C
-        u = self.u
-        n = self.n
-        # n^2 * covariance, exact.
-        cov = [[n * u[_IDX2M[i][j]] - u[_IDX1[i]] * u[_IDX1[j]] for j in range(3)] for i in range(3)]
-        trace = (cov[0][0] + cov[1][1] + cov[2][2]) // (n * n)
-        # Frame scale 2^e ~ rms spread: every moment in the frame is O(1).
-        self.e = (bit_length(trace) + 1) // 2
-        if self.e > FRAC:
-            raise ValueError("input values too large for the fixed-point frame")
-        self.shift = 1 << (FRAC - self.e)
-        self.cov = [[num(to_float(c, -2 * self.e)) / (self.nf * self.nf) for c in row] for row in cov]
-
-    # -- exact part ----------------------------------------------------------
-    def sums_at(self, f_int):
-        """Exact sums of V = 2^FRAC v for the centre b = C + f_int 2^(e-FRAC)."""
-        return shifted(self.u, self.shift, f_int)
-
-    def exact(self, s, a_int):
-        """(g_A, T, RSS) as exact ints: 2^5F sum w r, 2^4F sum v r, 2^6F sum r^2."""
-        p3 = 1 << (3 * FRAC)
-        ga = []
-        for m in range(6):
-            acc = 0
-            row = _IDX4[m]
-            crow = _C4[m]
-            for k in range(6):
-                acc += a_int[k] * crow[k] * s[row[k]]
-            ga.append(acc - p3 * _W_C[m] * s[_IDX2[m]])
-        t = []
-        for i in range(3):
-            acc = 0
-            row = _IDX3[i]
-            for k in range(6):
-                acc += a_int[k] * _W_C[k] * s[row[k]]
-            t.append(acc - p3 * s[_IDX1[i]])
-        lin = 0
-        for m in range(6):
-            lin += a_int[m] * _W_C[m] * s[_IDX2[m]]
-        rss = p3 * p3 * self.n - p3 * lin
-        for m in range(6):
-            rss += a_int[m] * ga[m]
-        return ga, t, rss
-
-    # -- float part ----------------------------------------------------------
-    def value(self, x, exponent):
-        return self.num(to_float(x, exponent))
-
-    def normal_equations(self, s, a_int, ga, t):
-        """Per-sample normal matrix H (9x9) and gradient g of (1) at the state."""
-        num = self.num
-        nf = self.nf
-        two = num(2.0)
-        a = [self.value(x, -FRAC) for x in a_int]
-        am = _sym(a)
-        m4 = [[self.value(s[_IDX4[m][k]], -4 * FRAC) * num(float(_C4[m][k])) / nf for k in range(6)] for m in range(6)]
-        m3 = [[self.value(s[_IDX3[i][k]], -3 * FRAC) * num(float(_W_C[k])) / nf for k in range(6)] for i in range(3)]
-        m2 = [[self.value(s[_IDX2M[i][j]], -2 * FRAC) / nf for j in range(3)] for i in range(3)]
-        h = [[num(0.0)] * 9 for _ in range(9)]
-        for m in range(6):
-            for k in range(6):
-                h[m][k] = m4[m][k]
-            for i in range(3):
-                # d r / d f_i = -2 (A v)_i
-                x = -two * (am[i][0] * m3[0][m] + am[i][1] * m3[1][m] + am[i][2] * m3[2][m])
-                h[m][6 + i] = x
-                h[6 + i][m] = x
-        am2 = [[am[i][0] * m2[0][j] + am[i][1] * m2[1][j] + am[i][2] * m2[2][j] for j in range(3)] for i in range(3)]
-        four = num(4.0)
-        for i in range(3):
-            for k in range(3):
-                h[6 + i][6 + k] = four * (am2[i][0] * am[0][k] + am2[i][1] * am[1][k] + am2[i][2] * am[2][k])
-        tv = [self.value(x, -4 * FRAC) / nf for x in t]
-        g = [self.value(x, -5 * FRAC) / nf for x in ga]
-        for i in range(3):
-            g.append(-two * (am[i][0] * tv[0] + am[i][1] * tv[1] + am[i][2] * tv[2]))
-        return h, g, a
-
-
-class _Prior:
-    """Weak prior residuals rho(a, f) and their Jacobian (9 columns)."""
-
-    def __init__(self, num, kr, q_target, q_sigma, f_target=None, f_sigma=None, t_target=None, t_sigma=None):
-        self.num = num
-        self.kr = [num(k) for k in kr]
-        self.q_target = [num(x) for x in q_target]
-        self.q_sigma = [num(x) for x in q_sigma]
-        self.f_target = [num(x) for x in f_target] if f_target else None
-        self.f_sigma = num(f_sigma) if f_sigma else None
-        self.t_target = num(t_target) if t_target else None
-        self.t_sigma = num(t_sigma) if t_sigma else None
-
-    def shape(self, a):
-        """A' = K^-1 A K^-1 (nominal axes), t = tr A' / 3, q = A'/t - I."""
-        num = self.num
-        kr = self.kr
-        ap = [a[m] / (kr[_PAIR[m][0]] * kr[_PAIR[m][1]]) for m in range(6)]
-        t = (ap[0] + ap[1] + ap[2]) / num(3.0)
-        q = [ap[m] / t - (num(1.0) if m < 3 else num(0.0)) for m in range(6)]
-        return ap, t, q
-
-    def residuals(self, a, f):
-        num = self.num
-        zero = num(0.0)
-        ap, t, q = self.shape(a)
-        rho = []
-        jac = []
-        # d t / d a_m is 1/(3 k_m^2) for the diagonal terms, 0 otherwise.
-        dt = [num(1.0) / (num(3.0) * self.kr[m] * self.kr[m]) if m < 3 else zero for m in range(6)]
-        for i in range(6):
-            rho.append((q[i] - self.q_target[i]) / self.q_sigma[i])
-            row = [zero] * 9
-            for m in range(6):
-                d = -ap[i] * dt[m] / (t * t)
-                if m == i:
-                    d = d + num(1.0) / (self.kr[_PAIR[m][0]] * self.kr[_PAIR[m][1]] * t)
-                row[m] = d / self.q_sigma[i]
-            jac.append(row)
-        if self.f_target is not None:
-            for i in range(3):
-                rho.append((f[i] - self.f_target[i]) / self.f_sigma)
-                row = [zero] * 9
-                row[6 + i] = num(1.0) / self.f_sigma
-                jac.append(row)
-        if self.t_target is not None:
-            rho.append((t / self.t_target - num(1.0)) / self.t_sigma)
-            row = [zero] * 9
-            for m in range(3):
-                row[m] = dt[m] / (self.t_target * self.t_sigma)
-            jac.append(row)
-        return rho, jac
 
 
 def _finite_all(values):
@@ -254,12 +90,12 @@ def _initial_guesses(pb):
         return num(to_float(u[INDEX[exp]], -e * (exp[0] + exp[1] + exp[2]))) / nf
 
     guesses = []
-    feats = [(_W_EXP[m], _W_C[m]) for m in range(6)] + [(_UNIT[i], 1) for i in range(3)]
-    gram = [[mu(_add(fp[0], fq[0])) * num(float(fp[1] * fq[1])) for fq in feats] for fp in feats]
+    feats = [(W_EXP[m], W_C[m]) for m in range(6)] + [(UNIT[i], 1) for i in range(3)]
+    gram = [[mu(add_exp(fp[0], fq[0])) * num(float(fp[1] * fq[1])) for fq in feats] for fp in feats]
     rhs = [mu(fp[0]) * num(float(fp[1])) for fp in feats]
     try:
         sol = linalg.solve_spd(gram, rhs, num)
-        am = _sym(sol[:6])
+        am = sym(sol[:6])
         low = linalg.cholesky(am, num)
         half_g = [sol[6 + i] / num(2.0) for i in range(3)]
         centre = linalg.cho_solve(low, half_g)  # A c = g/2, b = -c ... sign below
@@ -271,11 +107,11 @@ def _initial_guesses(pb):
         pass
     # Sphere: |v|^2 + g.v + d = 0, linear least squares in (g, d).
     one = num(1.0)
-    gram = [[mu(_add(_UNIT[i], _UNIT[j])) for j in range(3)] + [mu(_UNIT[i])] for i in range(3)]
-    gram.append([mu(_UNIT[j]) for j in range(3)] + [one])
+    gram = [[mu(add_exp(UNIT[i], UNIT[j])) for j in range(3)] + [mu(UNIT[i])] for i in range(3)]
+    gram.append([mu(UNIT[j]) for j in range(3)] + [one])
     rhs = []
     for i in range(3):
-        rhs.append(-(mu(_add(_UNIT[i], (2, 0, 0))) + mu(_add(_UNIT[i], (0, 2, 0))) + mu(_add(_UNIT[i], (0, 0, 2)))))
+        rhs.append(-(mu(add_exp(UNIT[i], (2, 0, 0))) + mu(add_exp(UNIT[i], (0, 2, 0))) + mu(add_exp(UNIT[i], (0, 0, 2)))))
     rhs.append(-(mu((2, 0, 0)) + mu((0, 2, 0)) + mu((0, 0, 2))))
     try:
         sol = linalg.solve_spd(gram, rhs, num)
@@ -359,8 +195,6 @@ def _system(pb, st):
 def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175),
           min_samples=12, max_iter=60, max_error=None, min_observability=1e-6):
     """See EllipsoidFit.solve; returns a Calibration or raises FitError."""
-    from shared.calibration import Calibration
-
     n = sums[0]
     if n < min_samples:
         raise FitError(TOO_FEW_SAMPLES, "%d samples, need at least %d" % (n, min_samples))
@@ -372,7 +206,7 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
     k_geo = (k_nom[0] * k_nom[1] * k_nom[2]) ** (1.0 / 3.0)
     kr = [k / k_geo for k in k_nom]
 
-    pb = _Problem(sums, num)
+    pb = Problem(sums, num)
     if not _finite_all([c for row in pb.cov for c in row]):
         raise FitError(NON_FINITE, "sample scatter overflows this number type")
     values, _ = linalg.eigh3(pb.cov, num)
@@ -381,7 +215,7 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
     if not top > num(0.0) or (prior is None and observability < min_observability):
         raise FitError(DEGENERATE_COVERAGE, "samples span no volume (observability %.2g): rotate about more than one axis" % observability)
 
-    pr = _make_prior(pb, prior, field, num, kr, k_nom, shape_sigma)
+    pr = make_prior(pb, prior, field, num, kr, k_nom, shape_sigma)
 
     best = None
     for a, f in _initial_guesses(pb):
@@ -434,47 +268,12 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
     return _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error)
 
 
-def _make_prior(pb, prior, field, num, kr, k_nom, shape_sigma):
-    if prior is None:
-        if shape_sigma is None:
-            return None
-        sd, so = shape_sigma
-        return _Prior(num, kr, [0.0] * 6, [sd, sd, sd, so, so, so])
-    # A previous calibration on the same input unit: the quadric it implies
-    # for today's field, A = M^T M / F^2, in this fit's frame (x 4^e).
-    m = prior.matrix
-    f_now = float(field) if field is not None else prior.field
-    scale_frame = math.ldexp(1.0, 2 * pb.e) / (f_now * f_now)
-    a_raw = []
-    for i, j in _PAIR:
-        a_raw.append(sum(m[r][i] * m[r][j] for r in range(3)) * scale_frame)
-    ap = [a_raw[k] / (kr[_PAIR[k][0]] * kr[_PAIR[k][1]]) for k in range(6)]
-    t = (ap[0] + ap[1] + ap[2]) / 3.0
-    q = [ap[k] / t - (1.0 if k < 3 else 0.0) for k in range(6)]
-    gain = abs(linalg.det3(m)) ** (1.0 / 3.0)  # output unit per input unit
-    f_target = [(prior.offset[i] - pb.centre[i]) / math.ldexp(1.0, pb.e) for i in range(3)]
-    f_sigma = PRIOR_OFFSET_NT / gain / math.ldexp(1.0, pb.e)
-    return _Prior(num, kr, q, [PRIOR_SHAPE] * 6, f_target, f_sigma, t, PRIOR_SHAPE)
-
-
-# Residual rms above this share of the field is not a distorted sphere: the
-# noisiest real MEMS log here (QMC5883L) scatters 6 % after the best fit, a
-# hyperboloid 19 %.
-MAX_MISFIT = 0.1
-
-# A previous calibration of the same sensor: how far today's may differ.
-# Shape and gain within 2e-4 (about 10 nT at 50,000 nT); offsets within 10 nT
-# (fluxgate offset drift with temperature is of that order over a field day).
-PRIOR_SHAPE = 2e-4
-PRIOR_OFFSET_NT = 10.0
-
-
 def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error):
     from shared.calibration import Calibration
 
     one = num(1.0)
     zero = num(0.0)
-    am = _sym(st.a)
+    am = sym(st.a)
     a_values, a_vectors = linalg.eigh3(am, num)
     if not min(a_values) > zero:
         raise FitError(NOT_ELLIPSOID, "fitted quadric is not an ellipsoid (eigenvalues %s)" % ", ".join("%.3g" % float(x) for x in a_values))
@@ -486,8 +285,8 @@ def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_er
         trf = to_float(tr)
         e = [num(to_float(3 * st.a_int[m] - (tr if m < 3 else 0)) / trf) for m in range(6)]
     else:
-        _, _, e = pr.shape(st.a) if pr else _Prior(num, kr, [0.0] * 6, [1.0] * 6).shape(st.a)
-    e_values, e_vectors = linalg.eigh3(_sym(e), num)
+        _, _, e = pr.shape(st.a) if pr else Prior(num, kr, [0.0] * 6, [1.0] * 6).shape(st.a)
+    e_values, e_vectors = linalg.eigh3(sym(e), num)
     # G = sqrt(I + E) = I + X, X = V diag(l / (1 + sqrt(1 + l))) V^T: the small
     # part is computed on its own so float32 rounding acts on 1e-2, not on 1.
     x = linalg.sym_function(e_values, e_vectors, lambda l: l / (one + num(math.sqrt(float(one + l)))))

@@ -1,0 +1,130 @@
+"""The fit's exact algebra: residuals, gradient and normal matrix from power sums.
+
+Model (paper eq. 2): h_c = M (h - b), |h_c| = R for every orientation. With
+A = M^T M / R^2 each sample gives the residual
+
+    r = v^T A v - 1,   v = (h - b) / 2^e            (1)
+
+(|M(h-b)|^2 - R^2 normalised by R^2; 2^e is a power-of-two frame scale). For
+any A and b, sum r dr/dp and the normal matrix are polynomials of degree <= 4
+in v, so they follow from the power sums re-centred on b (shared.moments).
+
+The parameters are held as fixed-point integers (FRAC fractional bits), so the
+data gradient sum w r, sum v r and the residual sum of squares are computed
+*exactly* in integers; only the normal matrix is formed in the chosen number
+type (shared.solver explains why that is enough).
+"""
+
+from shared.moments import INDEX, bit_length, mean_centre, shifted, to_float
+
+FRAC = 40  # fractional bits of the fixed-point parameters (relative 1e-12)
+
+# The quadric terms w(v) with w.a = v^T A v, a = (A11, A22, A33, A12, A13, A23).
+W_EXP = ((2, 0, 0), (0, 2, 0), (0, 0, 2), (1, 1, 0), (1, 0, 1), (0, 1, 1))
+W_C = (1, 1, 1, 2, 2, 2)
+UNIT = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+PAIR = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+
+def add_exp(e1, e2):
+    return (e1[0] + e2[0], e1[1] + e2[1], e1[2] + e2[2])
+
+
+_IDX4 = [[INDEX[add_exp(W_EXP[m], W_EXP[n])] for n in range(6)] for m in range(6)]
+_C4 = [[W_C[m] * W_C[n] for n in range(6)] for m in range(6)]
+_IDX3 = [[INDEX[add_exp(UNIT[i], W_EXP[n])] for n in range(6)] for i in range(3)]
+_IDX2 = [INDEX[e] for e in W_EXP]
+_IDX1 = [INDEX[e] for e in UNIT]
+_IDX2M = [[INDEX[add_exp(UNIT[i], UNIT[j])] for j in range(3)] for i in range(3)]
+
+def sym(a):
+    return [[a[0], a[3], a[4]], [a[3], a[1], a[5]], [a[4], a[5], a[2]]]
+
+
+class Problem:
+    """The fit in the frame v = (h - C) / 2^e, parameters as fixed-point ints."""
+
+    def __init__(self, sums, num):
+        self.num = num
+        self.n = sums[0]
+        self.nf = num(float(self.n))
+        self.centre = mean_centre(sums)
+        self.u = shifted(sums, 1, self.centre)  # exact sums of h - C
+        u = self.u
+        n = self.n
+        # n^2 * covariance, exact.
+        cov = [[n * u[_IDX2M[i][j]] - u[_IDX1[i]] * u[_IDX1[j]] for j in range(3)] for i in range(3)]
+        trace = (cov[0][0] + cov[1][1] + cov[2][2]) // (n * n)
+        # Frame scale 2^e ~ rms spread: every moment in the frame is O(1).
+        self.e = (bit_length(trace) + 1) // 2
+        if self.e > FRAC:
+            raise ValueError("input values too large for the fixed-point frame")
+        self.shift = 1 << (FRAC - self.e)
+        self.cov = [[num(to_float(c, -2 * self.e)) / (self.nf * self.nf) for c in row] for row in cov]
+
+    # -- exact part ----------------------------------------------------------
+    def sums_at(self, f_int):
+        """Exact sums of V = 2^FRAC v for the centre b = C + f_int 2^(e-FRAC)."""
+        return shifted(self.u, self.shift, f_int)
+
+    def exact(self, s, a_int):
+        """(g_A, T, RSS) as exact ints: 2^5F sum w r, 2^4F sum v r, 2^6F sum r^2."""
+        p3 = 1 << (3 * FRAC)
+        ga = []
+        for m in range(6):
+            acc = 0
+            row = _IDX4[m]
+            crow = _C4[m]
+            for k in range(6):
+                acc += a_int[k] * crow[k] * s[row[k]]
+            ga.append(acc - p3 * W_C[m] * s[_IDX2[m]])
+        t = []
+        for i in range(3):
+            acc = 0
+            row = _IDX3[i]
+            for k in range(6):
+                acc += a_int[k] * W_C[k] * s[row[k]]
+            t.append(acc - p3 * s[_IDX1[i]])
+        lin = 0
+        for m in range(6):
+            lin += a_int[m] * W_C[m] * s[_IDX2[m]]
+        rss = p3 * p3 * self.n - p3 * lin
+        for m in range(6):
+            rss += a_int[m] * ga[m]
+        return ga, t, rss
+
+    # -- float part ----------------------------------------------------------
+    def value(self, x, exponent):
+        return self.num(to_float(x, exponent))
+
+    def normal_equations(self, s, a_int, ga, t):
+        """Per-sample normal matrix H (9x9) and gradient g of (1) at the state."""
+        num = self.num
+        nf = self.nf
+        two = num(2.0)
+        a = [self.value(x, -FRAC) for x in a_int]
+        am = sym(a)
+        m4 = [[self.value(s[_IDX4[m][k]], -4 * FRAC) * num(float(_C4[m][k])) / nf for k in range(6)] for m in range(6)]
+        m3 = [[self.value(s[_IDX3[i][k]], -3 * FRAC) * num(float(W_C[k])) / nf for k in range(6)] for i in range(3)]
+        m2 = [[self.value(s[_IDX2M[i][j]], -2 * FRAC) / nf for j in range(3)] for i in range(3)]
+        h = [[num(0.0)] * 9 for _ in range(9)]
+        for m in range(6):
+            for k in range(6):
+                h[m][k] = m4[m][k]
+            for i in range(3):
+                # d r / d f_i = -2 (A v)_i
+                x = -two * (am[i][0] * m3[0][m] + am[i][1] * m3[1][m] + am[i][2] * m3[2][m])
+                h[m][6 + i] = x
+                h[6 + i][m] = x
+        am2 = [[am[i][0] * m2[0][j] + am[i][1] * m2[1][j] + am[i][2] * m2[2][j] for j in range(3)] for i in range(3)]
+        four = num(4.0)
+        for i in range(3):
+            for k in range(3):
+                h[6 + i][6 + k] = four * (am2[i][0] * am[0][k] + am2[i][1] * am[1][k] + am2[i][2] * am[2][k])
+        tv = [self.value(x, -4 * FRAC) / nf for x in t]
+        g = [self.value(x, -5 * FRAC) / nf for x in ga]
+        for i in range(3):
+            g.append(-two * (am[i][0] * tv[0] + am[i][1] * tv[1] + am[i][2] * tv[2]))
+        return h, g, a
+
+
