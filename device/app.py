@@ -148,12 +148,19 @@ class App:
         if s is not None:
             s.sample(sx, sy, sz)
             s.add_temperature(self.temp_c)
-        blk = self.survey.sample(sx, sy, sz, st)
+        # |h_c| per decimated sample, averaged over the output block (rotation invariant)
+        cal = self.cal
+        if cal is not None:
+            f = cal.magnitude(sx / w, sy / w, sz / w)
+        else:
+            k = self.scale
+            f = ((sx * k[0]) ** 2 + (sy * k[1]) ** 2 + (sz * k[2]) ** 2) ** 0.5 / w
+        blk = self.survey.sample(sx, sy, sz, st, f)
         if blk is not None:
             self._output(blk)
 
     def _output(self, blk):
-        x, y, z, tc = blk
+        x, y, z, tc, f = blk
         temp = self.adc.temperature_c(tc)
         t = self.board.ticks_ms()
         cal = self.cal
@@ -162,7 +169,6 @@ class App:
         else:
             k = self.scale
             bx, by, bz = x * k[0], y * k[1], z * k[2]
-        f = (bx * bx + by * by + bz * bz) ** 0.5
         warn = None
         if cal is not None:
             tcal = cal.meta.get("temperature_c")

@@ -35,13 +35,15 @@ SCHEMA = {
     "scale_x": (0.012983, "float", 1e-6, 1e3),
     "scale_y": (0.012983, "float", 1e-6, 1e3),
     "scale_z": (0.012983, "float", 1e-6, 1e3),
-    # decimation: 4-frame (2 ms) boxcar every 8 frames -> 250 samples/s to the gates
-    "decim": (8, "int", 1, 256),
-    "window": (4, "int", 1, 256),
+    # decimation: 5-frame (2.5 ms) boxcar -> 400 samples/s to the gates; the
+    # simulator's smearing experiment (docs/simulator.md): 2.5 ms + a 1 rev/s
+    # gate scores the same as fitting every conversion (0.43 nT PTP)
+    "decim": (5, "int", 1, 256),
+    "window": (5, "int", 1, 256),
     # calibration
     "field_nt": (None, "opt_float", 1000.0, 100000.0),  # local field if known (e.g. IGRF)
     "field_tol": (0.05, "float", 0.001, 0.5),     # accepted |fitted/configured - 1|
-    "gate_rate_dps": (540.0, "float", 10.0, 5000.0),  # rotation-rate gate (smearing)
+    "gate_rate_dps": (360.0, "float", 10.0, 5000.0),  # rotation-rate gate: 1 rev/s (smearing)
     "cells": (4, "int", 2, 12),                   # 6*cells^2 coverage cells
     "cell_cap": (24, "int", 1, 10000),            # samples per cell into the fit
     "min_coverage": (0.5, "float", 0.05, 1.0),    # to allow auto-finish

@@ -75,6 +75,27 @@ def make_world(seed=0, noise_nt=0.1, serial="pty", faults=(None, None), chip_ids
     return World(analog, seed=seed + 3, serial=serial, faults=faults, chip_ids=chip_ids)
 
 
+def handheld_world(serial="pty", **scenario):
+    """A World on the simulator's Handheld (desktop.sim.board): its Mag649 preset,
+    hand/spin motions, front end and temperature, for the given Scenario settings."""
+    from desktop.sim.board import Handheld
+    from desktop.sim.scenario import Scenario
+    return World(handheld=Handheld(Scenario(**scenario)), serial=serial)
+
+
+HANDHELD_NT_PER_CODE = 0.0144   # docs/simulator.md, front end: 100 uV/nT through a 0.2 divider
+
+
+def write_config(root, **settings):
+    """Put a config.json on the simulated flash before boot (what a user does once per board)."""
+    if DEVICE not in sys.path:
+        sys.path.insert(0, DEVICE)
+    import store
+    fs = os.path.join(root, "flash")
+    os.makedirs(fs, exist_ok=True)
+    store.save(fs, "config", settings)
+
+
 class InProcessDevice:
     """The firmware's modules imported into this CPython process; World is the link."""
 

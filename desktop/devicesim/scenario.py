@@ -16,8 +16,7 @@ import os
 
 import numpy as np
 
-from desktop.devicesim.physics import NT_PER_CODE
-from desktop.devicesim.runner import make_world, start_device
+from desktop.devicesim.runner import HANDHELD_NT_PER_CODE, handheld_world, start_device, write_config
 
 
 def events(world, name=None, since=0):
@@ -38,62 +37,72 @@ def send(dev, world, line, dt=0.05):
     dev.run_until(world.time + dt)
 
 
-def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s=120.0, spin_s=20.0,
-                         noise_nt=0.1, rev_per_s=0.6, world=None, progress=None):
+def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s=120.0, spin_s=10.0,
+                         noise_nt=0.1, rate=2000, progress=None, motion_seed=11):
+    """Calibrate on one simulated capture (hand), verify on another (spin), same sensor.
+
+    Like the real procedure: the firmware boots, the operator presses the
+    button and rotates until the LED says done (auto-finish) or rotate_s
+    passes (then presses again); later the instrument is switched on again
+    (the calibration comes back from flash) and turned once about the vertical.
+    The sensor, front end and motions are the simulator's (desktop.sim.board).
+    """
     os.makedirs(root, exist_ok=True)
-    w = world or make_world(seed=seed, noise_nt=noise_nt, serial=None)
-    m = w.analog.motion
-    m.still(1.0)
+    write_config(root, scale_x=HANDHELD_NT_PER_CODE, scale_y=HANDHELD_NT_PER_CODE,
+                 scale_z=HANDHELD_NT_PER_CODE, rate=rate)
+    w = handheld_world(serial=None, motion="hand", seconds=rotate_s + 3.0, seed=seed,
+                       motion_seed=motion_seed, noise=noise_nt, rate=rate)
     dev = start_device(w, root, kind=kind)
     try:
-        dev.run_until(1.0)
-        # the operator: one short press, then rotate until the LED says done (auto-finish)
+        dev.run_until(0.5)
         w.press(0.2)
         t_press = w.time
-        t = t_press
         done = None
-        n0 = len(w.lines())
-        while t < t_press + rotate_s:
+        n0 = 0
+        t = t_press
+        while t < t_press + rotate_s and done is None:
             t = min(t + 1.0, t_press + rotate_s)
-            while m.duration < t + 2.0:  # script the hand ahead of the analog grid (0.5 s)
-                m.hand(1.0, rev_per_s=rev_per_s)
             dev.run_until(t)
             for e in events(w, "cal", n0):
                 if e.get("state") in ("done", "failed", "cancelled"):
                     done = e
             n0 = len(w.lines())
             if progress:
-                progress(w.time - t_press)
-            if done:
-                break
+                progress(w.time - t_press, events(w, "cal")[-1:])
         rotated = w.time - t_press
         if done is None:   # no auto-finish: the operator presses again
             w.press(0.2)
             dev.run_until(w.time + 0.5)
-            for e in events(w, "cal"):
+            for e in events(w, "cal", n0):
                 if e.get("state") in ("done", "failed", "cancelled"):
                     done = e
-        # verification: hold still, then one slow 360 degree spin about the vertical
-        m.still(2.0)
-        m.spin(spin_s, 360.0)
-        m.still(2.0)
-        send(dev, w, "stream corrected")
-        t_spin = m.duration - 2.0 - spin_s
-        dev.run_until(t_spin)
-        n0 = len(w.lines())
-        dev.run_until(t_spin + spin_s)
-        spin = events(w, "data", n0)
-        send(dev, w, "stream off")
-        send(dev, w, "status")
-        status = events(w)[-1]
+        cal_lines = w.lines()
+    finally:
+        dev.close()
+    # verification: power on again, one 360 degree turn about the vertical in spin_s
+    w2 = handheld_world(serial=None, motion="spin", seconds=spin_s + 2.0, rot_rate=1.0 / spin_s,
+                        seed=seed, motion_seed=motion_seed + 1, noise=noise_nt, rate=rate)
+    dev = start_device(w2, root, kind=kind)
+    try:
+        dev.run_until(0.3)
+        boot = events(w2, "boot")
+        send(dev, w2, "stream corrected")
+        n0 = len(w2.lines())
+        t0 = w2.time
+        dev.run_until(t0 + spin_s)
+        spin = events(w2, "data", n0)
+        send(dev, w2, "stream off")
+        send(dev, w2, "status")
+        status = events(w2)[-1]
     finally:
         dev.close()
     f_cal = np.array([d["f"] for d in spin])
     c = np.array([d["c"] for d in spin])
-    f_raw = np.linalg.norm(c * NT_PER_CODE, axis=1)
+    f_raw = np.linalg.norm(c * HANDHELD_NT_PER_CODE, axis=1) if len(c) else np.array([])
     return {
         "kind": kind,
         "cal": done,
+        "boot": boot[0] if boot else None,
         "rotated_s": rotated,
         "spin_f_cal": f_cal,
         "spin_f_raw": f_raw,
@@ -102,6 +111,7 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
         "ptp_raw": float(np.ptp(f_raw)) if len(f_raw) else None,
         "var_raw": float(np.var(f_raw)) if len(f_raw) else None,
         "status": status,
+        "cal_lines": cal_lines,
+        "lines": w2.lines(),
         "world": w,
-        "lines": w.lines(),
     }

@@ -85,16 +85,25 @@ class BatchedADS1292(ADS1292):
 
 
 class World:
-    def __init__(self, analog, seed=0, serial="pty", chip_ids=(0x53, 0x53), faults=(None, None)):
+    def __init__(self, analog=None, seed=0, serial="pty", chip_ids=(0x53, 0x53), faults=(None, None),
+                 handheld=None):
         self.analog = analog
-        self.chips = [BatchedADS1292(chip_ids[i], seed=seed + 17 * i, fault=faults[i]) for i in range(2)]
+        self.handheld = handheld
+        if handheld is not None:
+            # desktop.sim.board.Handheld: the simulator's full analog chain, preloaded
+            self.chips = handheld.chips
+            for c in self.chips:
+                c.__class__ = BatchedADS1292
+            self._loaded_to = float("inf")
+        else:
+            self.chips = [BatchedADS1292(chip_ids[i], seed=seed + 17 * i, fault=faults[i]) for i in range(2)]
+            self._loaded_to = -1.0
         self.bus = SPIBus(self.chips)
         self.t_us = 0
         self.flags = 0
         self.pending = 0
         self.until = 0.0
         self.quit = False
-        self._loaded_to = -1.0
         self._falls = 0
         self.button_events = []     # (t_down, t_up) seconds
         self.led_log = []           # (t, level)
@@ -199,18 +208,15 @@ class World:
         limit = self._next_event(t)
         flags = 0
         if limit > t:
+            # time moves in whole modulator ticks: never wait less than two
+            limit = max(limit, t + 2.0 / 128000.0)
             c0 = self.chips[0]
             if self.start_level and c0._next_drdy is not None:
                 self._ensure(t + (c0._next_drdy - c0.tick) / 128000.0 + 0.001)
                 try:
-                    c0.wait_drdy(timeout=limit - t)
+                    self.bus.wait_drdy(0, timeout=limit - t)   # DRDY of chip 0 is wired to the MCU
                 except TimeoutError:
                     pass
-                # keep chip 1 on chip 0's exact (fractional) tick: SPIBus has no wait_drdy
-                c1 = self.chips[1]
-                lag = c0._ticks_f - c1._ticks_f
-                if lag > 0:
-                    c1.advance(lag / 128000.0)
             else:
                 self._advance(min(0.001, limit - t))
         falls = self.chips[0].drdy_falls

@@ -1,0 +1,64 @@
+"""A small protocol client over pyserial, stepping a simulated device while it waits.
+
+    c = Client(serial.Serial(world.serial_port, timeout=1), dev)
+    c.ask("status")          # -> the reply dict (ok true or false)
+    c.events("cal")          # unsolicited events seen so far, by name
+
+With a simulated device nothing runs between calls, so `ask` advances the
+device by `dt` of simulated time after writing, then reads what it printed.
+"""
+
+import json
+
+
+class Client:
+    def __init__(self, ser, dev, dt=0.05):
+        self.ser = ser
+        self.dev = dev
+        self.dt = dt
+        self.seen = []     # every JSON line read, in order
+        self.junk = []     # lines that were not JSON (must stay empty)
+
+    def _drain(self):
+        while self.ser.in_waiting:
+            line = self.ser.readline()
+            if not line:
+                return
+            if not line.endswith(b"\n"):
+                self.junk.append(line)
+                return
+            try:
+                self.seen.append(json.loads(line))
+            except ValueError:
+                self.junk.append(line)
+
+    def write(self, data):
+        self.ser.write(data)
+        self.ser.flush()
+
+    def step(self, dt=None):
+        w = self.dev.world
+        self.dev.run_until(w.time + (self.dt if dt is None else dt))
+        self._drain_available()
+
+    def _drain_available(self):
+        if self.ser.in_waiting:
+            self._drain()
+
+    def ask(self, line, dt=None):
+        """Send one command line; return the first reply (a dict with "ok") after it."""
+        start = len(self.seen)
+        self.write(line.encode() + b"\n" if isinstance(line, str) else line)
+        for _ in range(20):
+            self.step(dt)
+            for d in self.seen[start:]:
+                if "ok" in d:
+                    return d
+        raise TimeoutError("no reply to %r" % (line,))
+
+    def replies(self):
+        return [d for d in self.seen if "ok" in d]
+
+    def events(self, name=None):
+        self._drain_available()
+        return [d for d in self.seen if "ev" in d and (name is None or d["ev"] == name)]
