@@ -26,7 +26,7 @@ class ProtocolError(Exception):
     """A request the device refuses: .code is the stable error code."""
 
     def __init__(self, code, msg):
-        Exception.__init__(self, msg)
+        super().__init__(msg)  # MicroPython has no Exception.__init__ to call
         self.code = code
 
 

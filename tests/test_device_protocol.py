@@ -129,3 +129,31 @@ def test_start_and_cancel(client):
     ev = client.events("cal")[-1]
     assert ev["state"] == "cancelled" and ev["reason"] == "cancelled"
     assert client.ask("status")["calibrated"] is False
+
+
+def test_protocol_on_micropython_over_pty(tmp_path):
+    """The same line protocol from the firmware running in the real `micropython` executable."""
+    from desktop.devicesim.runner import micropython_exe
+    if micropython_exe() is None:
+        pytest.skip("no micropython executable")
+    w = make_world(seed=6, serial="pty")
+    w.analog.motion.still(30)
+    dev = start_device(w, str(tmp_path), kind="micropython")
+    try:
+        dev.run_until(0.3)
+        ser = serial.Serial(w.serial_port, timeout=1, exclusive=True)
+        c = Client(ser, dev)
+        v = c.ask("version")
+        assert v["impl"] == "micropython" and v["runtime"] == "sim-micropython"
+        assert c.ask("nope")["error"] == "unknown_command"
+        c.write(b"\xc3\x28\n")
+        c.step()
+        assert c.replies()[-1]["error"] == "bad_encoding"
+        assert c.ask("config set decim 4")["error"] == "bad_value"   # window 5 > decim 4
+        assert c.ask("config set decim 10")["ok"]
+        s = c.ask("status", dt=0.3)
+        assert s["frames"] > 0 and s["overflow"] == 0 and s["samples"] > 0
+        assert c.junk == []
+        ser.close()
+    finally:
+        dev.close()
