@@ -41,6 +41,7 @@ class App:
         self.button = Button(board)
         self.led = Led(board)
         self.session = None
+        self.last_coverage = None
         self.last_result = None
         self.fault = None
         self.stream = "off"
@@ -197,6 +198,7 @@ class App:
     def _finish_session(self):
         s = self.session
         self.session = None
+        self.last_coverage = s.cov
         gc.collect()
         cal, reason, msg = s.finish()
         result = {"state": s.state, "n": s.fit.n, "coverage": _r(s.coverage())}
@@ -332,6 +334,12 @@ class App:
             raise ProtocolError("not_calibrating", "no calibration in progress")
         self._cancel_session()
         return {}
+
+    def cmd_get_coverage(self, args):
+        cov = self.session.cov if self.session is not None else self.last_coverage
+        if cov is None:
+            raise ProtocolError("no_coverage", "no calibration since boot")
+        return {"cells_per_edge": cov.edge, "counts": list(cov.counts), "fraction": _r(cov.fraction())}
 
     def cmd_stream(self, args):
         words = args.split()

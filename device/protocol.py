@@ -57,6 +57,7 @@ class Protocol:
             "start-cal": app.cmd_start_cal,
             "finish-cal": app.cmd_finish_cal,
             "cancel-cal": app.cmd_cancel_cal,
+            "get-coverage": app.cmd_get_coverage,
             "stream": app.cmd_stream,
             "config": app.cmd_config,
             "help": self.cmd_help,

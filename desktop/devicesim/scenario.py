@@ -31,6 +31,24 @@ def events(world, name=None, since=0):
     return out
 
 
+def _progress(lines):
+    """Progress events with the seconds since the first one (events come once per second)."""
+    out = []
+    for d in _parse(lines):
+        if d.get("ev") == "cal" and d.get("state") == "collecting":
+            d["t_s"] = float(len(out))
+            out.append(d)
+    return out
+
+
+def _parse(lines):
+    for line in lines:
+        try:
+            yield json.loads(line)
+        except ValueError:
+            continue
+
+
 def send(dev, world, line, dt=0.05):
     """Type a command on the (in-memory or pty) serial line and let the device answer."""
     world.send((line + "\n").encode())
@@ -38,7 +56,7 @@ def send(dev, world, line, dt=0.05):
 
 
 def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s=120.0, spin_s=10.0,
-                         noise_nt=0.1, rate=2000, progress=None, motion_seed=11):
+                         noise_nt=0.1, rate=2000, progress=None, motion_seed=11, **config):
     """Calibrate on one simulated capture (hand), verify on another (spin), same sensor.
 
     Like the real procedure: the firmware boots, the operator presses the
@@ -49,7 +67,7 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
     """
     os.makedirs(root, exist_ok=True)
     write_config(root, scale_x=HANDHELD_NT_PER_CODE, scale_y=HANDHELD_NT_PER_CODE,
-                 scale_z=HANDHELD_NT_PER_CODE, rate=rate)
+                 scale_z=HANDHELD_NT_PER_CODE, rate=rate, **config)
     w = handheld_world(serial=None, motion="hand", seconds=rotate_s + 3.0, seed=seed,
                        motion_seed=motion_seed, noise=noise_nt, rate=rate)
     dev = start_device(w, root, kind=kind)
@@ -76,6 +94,8 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
             for e in events(w, "cal", n0):
                 if e.get("state") in ("done", "failed", "cancelled"):
                     done = e
+        send(dev, w, "get-coverage")
+        cov = events(w)[-1]
         cal_lines = w.lines()
     finally:
         dev.close()
@@ -112,6 +132,8 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
         "var_raw": float(np.var(f_raw)) if len(f_raw) else None,
         "status": status,
         "cal_lines": cal_lines,
+        "coverage": cov if cov.get("ok") else None,
+        "ready_at_s": next((e["t_s"] for e in _progress(cal_lines) if e.get("ready")), None),
         "lines": w2.lines(),
         "world": w,
     }
