@@ -140,9 +140,7 @@ class Session:
                 break
             x, y, z = h[i], h[i + 1], h[i + 2]
             self.fit.remove(x, y, z)
-            cell = self.cov.cell(x - c[0], y - c[1], z - c[2])
-            if self.cov.counts[cell] > 0:
-                self.cov.counts[cell] -= 1
+            self.cov.remove(x - c[0], y - c[1], z - c[2])
             self._hi = j
             self._hn -= 1
             self.removed += 1

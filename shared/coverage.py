@@ -73,6 +73,12 @@ class Coverage:
             self.counts[i] = c + 1
         return True
 
+    def remove(self, dx, dy, dz):
+        """Undo add() for a sample taken back out of the fit (EllipsoidFit.remove)."""
+        i = self.cell(dx, dy, dz)
+        if self.counts[i] > 0:
+            self.counts[i] -= 1
+
     def fraction(self, min_count=1):
         """Share of cells holding at least min_count samples, 0..1."""
         hit = 0

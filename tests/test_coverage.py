@@ -39,5 +39,7 @@ def test_cap_limits_each_cell():
     cov = Coverage(2, cap=3)
     assert [cov.add(1, 0, 0) for _ in range(5)] == [True, True, True, False, False]
     assert cov.counts[cov.cell(1, 0, 0)] == 3
+    cov.remove(1, 0, 0)
+    assert cov.add(1, 0, 0) and not cov.add(1, 0, 0)
     cov.reset()
     assert cov.fraction() == 0.0
