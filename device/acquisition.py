@@ -1,75 +1,65 @@
-"""Boxcar decimation of ADS1292 frames into fit-rate samples (main loop only).
+"""Decimated samples out of the DRDY ring (main loop side).
 
-    dec = Decimator(adc, decim=8, window=4)
-    n = dec.poll(on_sample, limit)  # calls on_sample(sx, sy, sz, st, n) per output
+    dec = Decimator(adc, decim=20, window=5)   # sets the ISR's boxcar (ads1292.set_decimation)
+    n = dec.poll(on_sample, limit)             # on_sample(sx, sy, sz, st) per sample
 
-Each output is the integer SUM of the last `window` frames of every block of
-`decim` frames: exact (no division, no float), and in units of codes*window.
+Each sample is the integer SUM of the last `window` frames of a block of
+`decim` frames, computed in the DRDY handler (ads1292.py): exact (no division,
+no float), in units of codes*window.
 Why a short window: a vector averaged over a rotation arc of angle a shrinks by
-sin(a/2)/(a/2) ~ 1 - a**2/24; at 1 rev/s a 2 ms window (4 frames at 2000 SPS)
-biases |B| by 50000 nT * (2*pi*0.002)**2/24 = 0.33 nT, a 0.1 s window by 1.6 %.
-Why decimate at all: the calibration path costs ~100x the acquisition path per
-sample, and the fit needs hundreds, not hundreds of thousands, of samples.
+sin(a/2)/(a/2) ~ 1 - a**2/24; at 1 rev/s a 2.5 ms window biases |B| by
+48000 nT * (2*pi*0.0025)**2/24 = 0.49 nT, a 0.1 s window by 1.6 % (docs/simulator.md).
+Why decimate by more than the window: the calibration path costs ~30x the
+acquisition path per sample, and the fit needs a few thousand samples, not
+hundreds of thousands (docs/firmware.md, the sweep).
 
-Continuity: every ring slot carries the ISR's frame number; a block that spans
-a gap (ring overflow or a bad status header) is discarded, so no output ever
-mixes two different moments.
+Continuity: every ring slot carries the handler's block number; a jump means
+blocks were lost (ring overflow, or a block discarded for a bad frame). It is
+counted in `gaps` and reported to `on_gap` so the calibration does not
+compare two samples that are not neighbours in time.
 """
+
+from ads1292 import DISCARDED
 
 _MASK30 = 0x3FFFFFFF
 
 
 class Decimator:
     def __init__(self, adc, decim=8, window=4):
-        if not 1 <= window <= decim:
-            raise ValueError("window %r must be within 1..decim (%r)" % (window, decim))
+        adc.set_decimation(decim, window)   # ValueError names a bad pair
         self.adc = adc
         self.decim = decim
         self.window = window
-        self.samples = 0      # decimated samples emitted
-        self.discarded = 0    # blocks thrown away across a gap
-        self.gaps = 0         # discontinuities seen in the frame numbers
-        self.restart()
-
-    def restart(self):
-        self._i = 0
-        self._sx = self._sy = self._sz = self._st = 0
+        self.samples = 0      # decimated samples delivered
+        self.gaps = 0         # discontinuities seen in the block numbers
         self._last = -1
 
-    def poll(self, on_sample, limit=64):
-        """Drain up to `limit` frames from the ring; return frames consumed."""
+    @property
+    def discarded(self):
+        """Blocks the handler threw away for a bad status header."""
+        return self.adc.state[DISCARDED]
+
+    def poll(self, on_sample, limit=16, on_gap=None):
+        """Deliver up to `limit` samples from the ring; return the number delivered."""
         adc = self.adc
         ring = adc.ring
-        first = self.decim - self.window
         n = 0
         while n < limit:
             j = adc.pop_index()
             if j < 0:
                 break
-            fno = ring[j + 4]
-            if self._last >= 0 and fno != ((self._last + 1) & _MASK30):
-                # frames were lost before this one: the open block is not contiguous
-                self.gaps += 1
-                if self._i:
-                    self.discarded += 1
-                self._i = 0
-                self._sx = self._sy = self._sz = self._st = 0
-            self._last = fno
-            i = self._i
-            if i >= first:
-                self._sx += ring[j]
-                self._sy += ring[j + 1]
-                self._sz += ring[j + 2]
-                self._st += ring[j + 3]
+            sx = ring[j]
+            sy = ring[j + 1]
+            sz = ring[j + 2]
+            st = ring[j + 3]
+            blk = ring[j + 4]
             adc.release()
+            if self._last >= 0 and blk != ((self._last + 1) & _MASK30):
+                self.gaps += 1
+                if on_gap is not None:
+                    on_gap()
+            self._last = blk
             n += 1
-            i += 1
-            if i == self.decim:
-                self.samples += 1
-                sx, sy, sz, stt = self._sx, self._sy, self._sz, self._st
-                self._sx = self._sy = self._sz = self._st = 0
-                self._i = 0
-                on_sample(sx, sy, sz, stt)
-            else:
-                self._i = i
+            self.samples += 1
+            on_sample(sx, sy, sz, st)
         return n

@@ -3,17 +3,24 @@
     adc = ADS1292Pair(board, rate=2000, gains=(1, 1, 1))
     adc.begin()                 # reset, probe IDs, configure, verify, RDATAC
     board.attach_drdy(adc.isr)  # DRDY of chip 0 -> adc.isr (hard IRQ, or polled)
-    ... main loop: adc.ring holds frames (x, y, z, t) as signed 24-bit codes
+    adc.set_decimation(decim=20, window=5)   # boxcar of 5 frames out of every 20
+    ... main loop: adc.ring holds boxcar sums (x, y, z, t, block number)
 
 Chip 0 digitises X (CH1) and Y (CH2); chip 1 digitises Z (CH1) and its
 internal temperature sensor (CH2, MUX=0100). Section numbers refer to the
 datasheet (SBAS502C); see shared/reference/ads1292-and-runtimes.md.
 
-`isr` must not allocate: it runs as a hard interrupt on rp2/stm32. It reads the
-two 9-byte frames into preallocated buffers, checks the status nibble, sign-
-extends with shifts (all values < 2**24, inside the small-int range) and pushes
-five ints (x, y, z, temperature, frame number) into an array('i') ring.
-A full ring drops the frame and counts it.
+`isr` must not allocate: it runs as a hard interrupt on rp2/stm32. It does the
+boxcar decimation itself, so the main loop wakes once per decimated sample,
+not once per conversion (on a 133 MHz M0+ a main-loop pass costs ~1 ms):
+frames before the window of each block of `decim` frames are not read at all
+(in RDATAC an unread result is replaced by the next one and DRDY pulses again,
+[E2E-915796] in the fact sheet), the `window` frames at the end of the block
+are read into preallocated buffers, the status nibble checked, sign-extended
+with shifts and summed (|sum| <= window * 2**23 <= 2**29 for window <= 64,
+inside the small-int range). A finished block goes into an array('i') ring as
+five ints (x, y, z, temperature sums, block number). A full ring drops the
+block and counts it; a block with a bad status header is discarded and counted.
 """
 
 from array import array
@@ -64,14 +71,20 @@ RATES = (125, 250, 500, 1000, 2000, 4000, 8000)
 _GAIN_CODES = {6: 0, 1: 1, 2: 2, 3: 3, 4: 4, 8: 5, 12: 6}
 GAINS = (1, 2, 3, 4, 6, 8, 12)
 
-# Ring slots: x, y, z, temperature code, frame number (continuity check)
+# Ring slots: x, y, z, temperature boxcar sums, block number (continuity check)
 SLOTS = const(5)
 # State array indices (kept in an array so the ISR writes without allocating)
 _HEAD = const(0)
 _TAIL = const(1)
-OVERFLOW = const(2)   # frames dropped because the ring was full
-FRAMES = const(3)     # frames received (wraps at 2**30)
-BADSYNC = const(4)    # frames dropped because the status header was not 1100
+OVERFLOW = const(2)   # decimated samples dropped because the ring was full
+FRAMES = const(3)     # DRDY edges seen (wraps at 2**30)
+BADSYNC = const(4)    # frames whose status header was not 1100 (their block is discarded)
+_PHASE = const(5)     # position of the next frame in its block, 0..decim-1
+_SPOIL = const(6)     # 1 when the open block holds a bad frame
+DISCARDED = const(7)  # blocks discarded for a bad frame
+BLOCKS = const(8)     # blocks completed (wraps at 2**30): the ring's sequence numbers
+_NSTATE = const(9)
+MAX_WINDOW = const(64)   # window * 2**23 must stay below 2**30 (small int in the ISR)
 _MASK30 = const(0x3FFFFFFF)
 
 # Worst case waits, §2 of the fact sheet: tPOR 32 ms; RESET needs 18 tCLK
@@ -105,7 +118,7 @@ def to_signed24(b0, b1, b2):
 class ADS1292Pair:
     """Two ADS1292 on one bus. `board` is the HAL (see hal_sim.py for the contract)."""
 
-    def __init__(self, board, rate=2000, gains=(1, 1, 1), vref_4v=False, ring_frames=512):
+    def __init__(self, board, rate=2000, gains=(1, 1, 1), vref_4v=False, ring_frames=128, decim=1, window=1):
         self.board = board
         self.rate = rate
         self._dr = rate_code(rate)
@@ -121,9 +134,13 @@ class ADS1292Pair:
         self._f1 = bytearray(FRAME_BYTES)
         self._cmd = bytearray(16)
         self._rd = bytearray(16)
+        # ring_frames decimated samples; 128 hold 2.56 s at 50 samples/s, ten
+        # times an RP2040's ~0.2 s provisional solve (docs/firmware.md)
         self.ring_frames = ring_frames
         self.ring = array("i", bytes(4 * SLOTS * ring_frames))
-        self.state = array("i", bytes(4 * 5))
+        self.state = array("i", bytes(4 * _NSTATE))
+        self.acc = array("i", bytes(4 * 4))   # open block: x, y, z, temperature sums
+        self.set_decimation(decim, window)
         self.streaming = False
         # Bind once: creating a bound method inside an ISR allocates.
         self.isr = self._isr
@@ -233,10 +250,22 @@ class ADS1292Pair:
         self.configure()
         self.start()
 
+    def set_decimation(self, decim, window):
+        """Boxcar of the last `window` frames of every `decim` (1 <= window <= decim, window <= 64)."""
+        if not (1 <= window <= decim and window <= MAX_WINDOW):
+            raise ValueError("window %r must be within 1..decim (%r) and <= %d" % (window, decim, MAX_WINDOW))
+        self.decim = decim
+        self.window = window
+        self._first = decim - window
+        self.reset_ring()
+
     def reset_ring(self):
         st = self.state
-        for i in range(5):
+        for i in range(_NSTATE):
             st[i] = 0
+        a = self.acc
+        for i in range(4):
+            a[i] = 0
 
     def lsb_volts(self, gain):
         """Input-referred volts per code: VREF / (2**23 - 1) / gain (§8.3.8)."""
@@ -249,44 +278,70 @@ class ADS1292Pair:
 
     # ****** interrupt path: no allocation below ******
     def _isr(self, _pin=None):
+        st = self.state
+        st[FRAMES] = (st[FRAMES] + 1) & _MASK30
+        p = st[_PHASE]
+        q = p + 1
+        if q == self.decim:
+            q = 0
+        st[_PHASE] = q
+        if p < self._first:
+            return        # outside the boxcar: not read, the next conversion replaces it
         b = self.board
         f0 = self._f0
         f1 = self._f1
         b.spi_readinto(0, f0)
         b.spi_readinto(1, f1)
-        st = self.state
-        st[FRAMES] = (st[FRAMES] + 1) & _MASK30
+        a = self.acc
         if (f0[0] & _STATUS_MASK) != _STATUS_SYNC or (f1[0] & _STATUS_MASK) != _STATUS_SYNC:
             st[BADSYNC] += 1
-            return
-        head = st[_HEAD]
-        nxt = head + 1
-        if nxt == self.ring_frames:
-            nxt = 0
-        if nxt == st[_TAIL]:
-            st[OVERFLOW] += 1
-            return
-        r = self.ring
-        i = head * SLOTS
-        v = (f0[3] << 16) | (f0[4] << 8) | f0[5]
-        r[i] = v - ((v & 0x800000) << 1)
-        v = (f0[6] << 16) | (f0[7] << 8) | f0[8]
-        r[i + 1] = v - ((v & 0x800000) << 1)
-        v = (f1[3] << 16) | (f1[4] << 8) | f1[5]
-        r[i + 2] = v - ((v & 0x800000) << 1)
-        v = (f1[6] << 16) | (f1[7] << 8) | f1[8]
-        r[i + 3] = v - ((v & 0x800000) << 1)
-        r[i + 4] = st[FRAMES]
-        st[_HEAD] = nxt
+            st[_SPOIL] = 1
+        else:
+            v = (f0[3] << 16) | (f0[4] << 8) | f0[5]
+            a[0] += v - ((v & 0x800000) << 1)
+            v = (f0[6] << 16) | (f0[7] << 8) | f0[8]
+            a[1] += v - ((v & 0x800000) << 1)
+            v = (f1[3] << 16) | (f1[4] << 8) | f1[5]
+            a[2] += v - ((v & 0x800000) << 1)
+            v = (f1[6] << 16) | (f1[7] << 8) | f1[8]
+            a[3] += v - ((v & 0x800000) << 1)
+        if q:
+            return        # block still open
+        blk = st[BLOCKS]
+        st[BLOCKS] = (blk + 1) & _MASK30
+        if st[_SPOIL]:
+            st[_SPOIL] = 0
+            st[DISCARDED] += 1
+        else:
+            head = st[_HEAD]
+            nxt = head + 1
+            if nxt == self.ring_frames:
+                nxt = 0
+            if nxt == st[_TAIL]:
+                st[OVERFLOW] += 1
+            else:
+                r = self.ring
+                i = head * SLOTS
+                r[i] = a[0]
+                r[i + 1] = a[1]
+                r[i + 2] = a[2]
+                r[i + 3] = a[3]
+                r[i + 4] = blk
+                st[_HEAD] = nxt
+        a[0] = 0
+        a[1] = 0
+        a[2] = 0
+        a[3] = 0
 
     # ****** main-loop side of the ring ******
     def available(self):
+        """Decimated samples waiting in the ring."""
         st = self.state
         n = st[_HEAD] - st[_TAIL]
         return n + self.ring_frames if n < 0 else n
 
     def pop_index(self):
-        """Slot index of the oldest frame, or -1; call release() when done with it."""
+        """Slot index of the oldest sample, or -1; call release() when done with it."""
         st = self.state
         t = st[_TAIL]
         if t == st[_HEAD]:

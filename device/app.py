@@ -5,7 +5,10 @@
 One cooperative main loop, no threads: drain the DRDY ring, feed each
 decimated sample to the calibration session and the survey averager, poll the
 button and the serial line, drive the LED, then idle until the next
-interrupt. Every state a user can see is also in `status`.
+decimated sample (or _HOUSE_MS). The DRDY handler does the boxcar itself, so
+a pass runs per decimated sample, not per conversion: on an RP2040 a pass
+costs ~1 ms and conversions come every 0.5 ms at 2000 SPS (docs/firmware.md).
+Every state a user can see is also in `status`.
 """
 
 import gc
@@ -24,7 +27,8 @@ from shared.calibration import Calibration
 import calibrate
 
 FIRMWARE_VERSION = "0.1.0"
-_DRAIN = 64   # frames per loop pass: bounds the latency of button and serial
+_DRAIN = 16      # samples per loop pass: bounds the latency of button and serial
+_HOUSE_MS = 20   # button, serial and LED at least every 20 ms (debounce is 30 ms)
 
 
 def _r(x, nd=3):
@@ -52,6 +56,9 @@ class App:
         self.boot_ms = board.ticks_ms()
         self.quit = False
         self._sample_cb = self._on_sample  # bound once: no allocation per loop pass
+        self._gap_cb = self._on_gap
+        self._want_f = False
+        self.cal_w = None
         body, _src, problem = store.load(board.root, "config")
         self.cfg, problems = cfgmod.from_dict(body if body is not None else {})
         self.config_problems = problems
@@ -69,6 +76,7 @@ class App:
     def _load_cal(self):
         body, src, problem = store.load(self.board.root, "cal", Calibration.from_dict)
         self.cal = Calibration.from_dict(body) if body is not None else None
+        self.cal_w = None
         self.cal_source = src
         self.cal_problem = problem if (problem and not problem.startswith("no ")) else None
 
@@ -88,7 +96,8 @@ class App:
 
     def _setup_pipeline(self):
         c = self.cfg
-        self.dec = Decimator(self.adc, c["decim"], c["window"])
+        if self.adc is not None:
+            self.dec = Decimator(self.adc, c["decim"], c["window"])
         self.sample_hz = c["rate"] / c["decim"]
         self.survey = Survey(c, c["window"], self.sample_hz)
         self.scale = (c["scale_x"], c["scale_y"], c["scale_z"])
@@ -97,22 +106,42 @@ class App:
         elif not c["log"] and self.log is not None:
             self.log.close()
             self.log = None
+        self._outputs()
         if not self.fault:
             self.led.set(ledp.SURVEY if self.cal is not None else ledp.UNCALIBRATED)
+
+    def _outputs(self):
+        # |h_c| per sample is only needed when a block goes out (stream or log);
+        # the calibration in sum units saves three divisions per sample
+        self._want_f = self.stream != "off" or self.log is not None
+        self.cal_w = self.cal.scaled_input(self.cfg["window"]) if self.cal is not None else None
 
     # ****** main loop ******
     def run(self):
         b = self.board
         while not self.quit and not b.quit_requested():
             self.step()
-            if self.adc is None or self.adc.available() == 0:
-                b.idle()
+            self.wait()
         if self.log is not None:
             self.log.close()
 
+    def wait(self, stop=None):
+        """Idle until a decimated sample is ready or _HOUSE_MS passed (or stop() is true)."""
+        b = self.board
+        adc = self.adc if not self.fault else None
+        t0 = b.ticks_ms()
+        while not b.quit_requested():
+            if adc is not None and adc.available():
+                return
+            if stop is not None and stop():
+                return
+            b.idle()
+            if b.ticks_diff(b.ticks_ms(), t0) >= _HOUSE_MS:
+                return
+
     def step(self):
         if self.adc is not None and not self.fault:
-            self.dec.poll(self._sample_cb, _DRAIN)
+            self.dec.poll(self._sample_cb, _DRAIN, self._gap_cb)
         ev = self.button.poll()
         if ev == SHORT:
             if self.session is None:
@@ -138,24 +167,28 @@ class App:
                 self.led.set(ledp.ENOUGH)
                 if self.cfg["auto_finish"]:
                     self._finish_session()
-            elif s.elapsed_s(now, self.board.ticks_diff) > self.cfg["max_cal_s"]:
+            elif s.timed_out(now, self.board.ticks_diff):
                 self._finish_session()
         self.led.update()
 
+    def _on_gap(self):
+        if self.session is not None:
+            self.session.break_chain()
+
     def _on_sample(self, sx, sy, sz, st):
-        w = self.cfg["window"]
-        self.temp_c = self.adc.temperature_c(st / w)
         s = self.session
         if s is not None:
             s.sample(sx, sy, sz)
-            s.add_temperature(self.temp_c)
         # |h_c| per decimated sample, averaged over the output block (rotation invariant)
-        cal = self.cal
-        if cal is not None:
-            f = cal.magnitude(sx / w, sy / w, sz / w)
+        if self._want_f:
+            cal = self.cal_w
+            if cal is not None:
+                f = cal.magnitude(sx, sy, sz)
+            else:
+                k = self.scale
+                f = ((sx * k[0]) ** 2 + (sy * k[1]) ** 2 + (sz * k[2]) ** 2) ** 0.5 / self.cfg["window"]
         else:
-            k = self.scale
-            f = ((sx * k[0]) ** 2 + (sy * k[1]) ** 2 + (sz * k[2]) ** 2) ** 0.5 / w
+            f = 0.0
         blk = self.survey.sample(sx, sy, sz, st, f)
         if blk is not None:
             self._output(blk)
@@ -163,22 +196,28 @@ class App:
     def _output(self, blk):
         x, y, z, tc, f = blk
         temp = self.adc.temperature_c(tc)
-        t = self.board.ticks_ms()
+        self.temp_c = temp
+        if self.session is not None:
+            self.session.add_temperature(temp)   # one per block: the die changes over seconds
         cal = self.cal
+        tcal = None
+        warn = False
+        if cal is not None:
+            tcal = cal.meta.get("temperature_c")
+            warn = tcal is not None and abs(temp - tcal) > self.cfg["temp_warn_c"]
+        self.cal_temp_warn = warn
+        if not self._want_f:
+            return   # nothing goes out: no stream, no log
+        t = self.board.ticks_ms()
         if cal is not None:
             bx, by, bz = cal.correct(x, y, z)
         else:
             k = self.scale
             bx, by, bz = x * k[0], y * k[1], z * k[2]
-        warn = None
-        if cal is not None:
-            tcal = cal.meta.get("temperature_c")
-            self.cal_temp_warn = tcal is not None and abs(temp - tcal) > self.cfg["temp_warn_c"]
-            if self.cal_temp_warn:
-                warn = "temperature %.1f C differs from calibration %.1f C" % (temp, tcal)
         if self.stream == "corrected":
+            msg = "temperature %.1f C differs from calibration %.1f C" % (temp, tcal) if warn else None
             self.proto.event("data", {"t": t, "b": [_r(bx), _r(by), _r(bz)], "f": _r(f), "temp": _r(temp, 2),
-                                      "c": [_r(x, 2), _r(y, 2), _r(z, 2)], "cal": cal is not None, "warn": warn})
+                                      "c": [_r(x, 2), _r(y, 2), _r(z, 2)], "cal": cal is not None, "warn": msg})
         elif self.stream == "raw":
             self.proto.event("raw", {"t": t, "c": [_r(x, 2), _r(y, 2), _r(z, 2)], "temp": _r(temp, 2)})
         if self.log is not None and self.session is None:
@@ -240,6 +279,7 @@ class App:
     def _install(self, cal):
         """Make cal the active calibration and store it; (saved, error)."""
         self.cal = cal
+        self._outputs()
         self.cal_source = "new"
         self.cal_problem = None
         try:
@@ -313,6 +353,7 @@ class App:
             raise ProtocolError("busy", "calibration in progress; cancel-cal first")
         store.remove(self.board.root, "cal")
         self.cal = None
+        self._outputs()
         self.cal_source = None
         self.led.set(ledp.UNCALIBRATED)
         return {}
@@ -348,6 +389,7 @@ class App:
         if len(words) != 1 or words[0] not in ("off", "raw", "corrected"):
             raise ProtocolError("bad_argument", "stream takes: on [raw|corrected] | raw | corrected | off")
         self.stream = words[0]
+        self._outputs()
         return {"stream": self.stream}
 
     def cmd_config(self, args):

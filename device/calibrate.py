@@ -6,22 +6,31 @@
     s.ready()                      # coverage and predicted error reached
     cal, reason, msg = s.finish()  # cal in ADC-code units, or (None, reason, msg)
 
-Gates, in order (each rejection is counted and reported):
-1. rotation rate: the chord |v_k - v_(k-1)| (offset free) over |v| and the
+Gates, in order (each rejection is counted and reported). They work on the
+sums shifted down to ~14 bits (`_sh`, full scale < 2**14), so every product
+below stays a small int (< 2**30: no heap allocation on MicroPython, where a
+float op or a bigger int allocates) and the cell index is cheap; 14 bits put
+one step at ~0.01 degree of direction, far below the ~20 degree cells and the
+gate's ~7 degree turn per sample.
+1. rotation rate: the chord |v_k - v_(k-1)| (offset free) over |v - c| and the
    sample period gives the turn rate; above gate_rate_dps the boxcar smears
-   |B| (shrink ~ (w T)^2 / 24), so the sample is dropped.
-2. disturbance: once a provisional fit exists, a sample in an already visited
-   cell whose calibrated |B| departs from the fitted field by more than
-   max(outlier_nt, 4 rms + 2 predicted error) is dropped; three in a row make
-   a disturbance, and the samples accepted in the second before it are
-   removed from the fit again (fit.remove is exact).
-3. coverage cap: 6*cells^2 equal-area cells about the centre (the previous
+   |B| (shrink ~ (w T)^2 / 24), so the sample is dropped. The gate works in
+   codes: exact for equal scale_x/y/z, tilted by their ratio otherwise.
+2. coverage cap: 6*cells^2 equal-area cells about the centre (the previous
    calibration's offset, else the front end's zero: raw offsets are < 2 % of
    |B|, a direction error of ~1 degree against ~20 degree cells); a full
-   cell takes no more, so slow lingering in one pose does not dominate.
+   cell takes no more, so slow lingering in one pose does not dominate. Checked
+   before the disturbance gate: a sample a full cell rejects costs no float.
+3. disturbance: once a provisional fit exists, a sample in a cell that holds
+   >= 3 samples whose calibrated |B| departs from the fitted field by more
+   than max(outlier_nt, 4 rms + 2 predicted error) is dropped; three in a row
+   make a disturbance, and the samples accepted in the second before it are
+   removed from the fit again (fit.remove is exact).
 
-The fit runs on the boxcar sums (units: code/window); the accepted calibration
-is rescaled to ADC codes so it survives a change of window.
+The fit runs on the full boxcar sums (units: code/window; exact integers:
+EllipsoidFit.add costs the same ~25 us on the unix port for 17- to 24-bit
+inputs, so shifting them would buy nothing); the accepted calibration is
+rescaled to ADC codes so it survives a change of window.
 """
 
 import math
@@ -35,9 +44,11 @@ DONE = "done"
 FAILED = "failed"
 CANCELLED = "cancelled"
 
-_HIST = 256          # recent accepted samples kept for removal (3 ints each)
+_HIST = 256          # recent accepted samples kept for removal (5 ints each)
 _MIN_PROVISIONAL = 60
 _RUN = 3             # consecutive outliers that make a disturbance
+_GATE_BITS = 14      # gate/cell arithmetic: |v| < 2**14, so |v|^2 sums stay < 2**30
+_G_SHIFT = 16        # rate gate: d^2 > (r^2 >> 16) * round(angle^2 * 2**16)
 
 
 class Session:
@@ -54,6 +65,14 @@ class Session:
             self.c = [int(v) for v in self.prior.offset]
         else:
             self.c = [0, 0, 0]
+        # shift that brings a full-scale sum (window * 2**23 codes) below 2**14
+        sh = 0
+        while (window << 23) >> sh >= (1 << _GATE_BITS):
+            sh += 1
+        self._sh = sh
+        self._cx = self.c[0] >> sh
+        self._cy = self.c[1] >> sh
+        self._cz = self.c[2] >> sh
         self.state = COLLECTING
         self.started = now_ms
         self.seen = 0
@@ -64,46 +83,70 @@ class Session:
         self.provisional = None
         self.provisional_error = None
         self.last_solve = now_ms
+        self._solve_ms = cfg["solve_every_s"] * 1000
+        self._max_ms = cfg["max_cal_s"] * 1000
+        self._cap = cfg["cell_cap"]
+        self._dist_limit = cfg["outlier_nt"]
         self.reason = None
         self.message = None
         self.temp_sum = 0.0
         self.temp_n = 0
-        self._prev = None
+        self._fresh = True          # no previous sample to compare with
+        self._px = self._py = self._pz = 0
         self._dist_run = 0
-        self._hist = array("i", bytes(4 * 4 * _HIST))  # x, y, z, sample index
+        self._hist = array("i", bytes(4 * 5 * _HIST))  # x, y, z, sample index, cell
         self._hn = 0
         self._hi = 0
+        self._back = int(1000 / period_ms) + 1   # samples in one second (backoff)
         g = cfg["gate_rate_dps"] * math.pi / 180.0 * period_ms / 1000.0
-        self._gate2 = g * g   # max squared turn angle per sample
+        self._g = max(1, int(g * g * (1 << _G_SHIFT) + 0.5))   # max squared turn angle per sample
 
     def elapsed_s(self, now_ms, diff):
         return diff(now_ms, self.started) / 1000.0
 
+    def timed_out(self, now_ms, diff):
+        return diff(now_ms, self.started) > self._max_ms
+
+    def break_chain(self):
+        """Samples were lost: the next one has no neighbour to gate its turn rate against."""
+        self._fresh = True
+
     def sample(self, sx, sy, sz):
         """Gate one decimated sample; return True if it went into the fit."""
         self.seen += 1
-        k = self.k
-        prev = self._prev
-        self._prev = (sx, sy, sz)
-        if prev is None:
+        sh = self._sh
+        x = (sx >> sh) - self._cx
+        y = (sy >> sh) - self._cy
+        z = (sz >> sh) - self._cz
+        dx = x - self._px
+        dy = y - self._py
+        dz = z - self._pz
+        self._px = x
+        self._py = y
+        self._pz = z
+        if self._fresh:
+            self._fresh = False
             return False
-        # 1. rotation rate, in nT so that unequal axis scales do not matter
-        dx = (sx - prev[0]) * k[0]
-        dy = (sy - prev[1]) * k[1]
-        dz = (sz - prev[2]) * k[2]
-        c = self.c
-        rx = (sx - c[0]) * k[0]
-        ry = (sy - c[1]) * k[1]
-        rz = (sz - c[2]) * k[2]
-        r2 = rx * rx + ry * ry + rz * rz
-        if dx * dx + dy * dy + dz * dz > self._gate2 * r2:
+        # 1. rotation rate: chord^2 > angle^2 |r|^2, in small ints
+        if dx * dx + dy * dy + dz * dz > ((x * x + y * y + z * z) >> _G_SHIFT) * self._g:
             self.rej_rate += 1
             return False
-        # 2. disturbance, against the provisional fit, only where it interpolates:
+        if not (x or y or z):
+            self.rej_rate += 1   # no direction (a dead front end): nothing to place
+            return False
+        # 2. coverage cell cap
+        cov = self.cov
+        cell = cov.cell(x, y, z)
+        counts = cov.counts
+        n = counts[cell]
+        if n >= self._cap:
+            self.rej_cap += 1
+            return False
+        # 3. disturbance, against the provisional fit, only where it interpolates:
         # in a cell that already holds samples, and once its predicted error is
         # well below the gate. A new orientation is never called a disturbance.
         pc = self.provisional
-        if pc is not None and self.cov.counts[self.cov.cell(sx - c[0], sy - c[1], sz - c[2])] >= 3:
+        if pc is not None and n >= 3:
             dev = abs(pc.magnitude(sx, sy, sz) - pc.field)
             if dev > self._dist_limit:
                 self.rej_dist += 1
@@ -112,17 +155,15 @@ class Session:
                     self._backoff()   # a disturbance, not a lone outlier: its onset went in
                 return False
             self._dist_run = 0
-        # 3. coverage cell cap
-        if not self.cov.add(sx - c[0], sy - c[1], sz - c[2]):
-            self.rej_cap += 1
-            return False
         self.fit.add(sx, sy, sz)
+        counts[cell] = n + 1
         h = self._hist
-        i = self._hi * 4
+        i = self._hi * 5
         h[i] = sx
         h[i + 1] = sy
         h[i + 2] = sz
         h[i + 3] = self.seen
+        h[i + 4] = cell
         self._hi = (self._hi + 1) % _HIST
         if self._hn < _HIST:
             self._hn += 1
@@ -131,16 +172,17 @@ class Session:
     def _backoff(self):
         """Remove samples accepted in the second before a disturbance was detected."""
         h = self._hist
-        c = self.c
-        back = int(1000 / self.period_ms) + 1
+        counts = self.cov.counts
+        back = self._back
         while self._hn:
             j = (self._hi - 1) % _HIST
-            i = j * 4
+            i = j * 5
             if self.seen - h[i + 3] > back:
                 break
-            x, y, z = h[i], h[i + 1], h[i + 2]
-            self.fit.remove(x, y, z)
-            self.cov.remove(x - c[0], y - c[1], z - c[2])
+            self.fit.remove(h[i], h[i + 1], h[i + 2])
+            cell = h[i + 4]
+            if counts[cell] > 0:
+                counts[cell] -= 1
             self._hi = j
             self._hn -= 1
             self.removed += 1
@@ -156,7 +198,7 @@ class Session:
         """Provisional solve every solve_every_s; returns True if one ran."""
         if self.fit.n < _MIN_PROVISIONAL:
             return False
-        if diff(now_ms, self.last_solve) < self.cfg["solve_every_s"] * 1000:
+        if diff(now_ms, self.last_solve) < self._solve_ms:
             return False
         self.last_solve = now_ms
         try:

@@ -119,10 +119,10 @@ class InProcessDevice:
         w.until = t
         app = self.app
         board = self.board
+        stop = lambda: w.time >= t  # noqa: E731
         while w.time < t and not app.quit:
             app.step()
-            if app.adc is None or app.adc.available() == 0:
-                board.idle()
+            app.wait(stop)
 
     def close(self):
         self.world.close()
