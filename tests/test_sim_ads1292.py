@@ -195,11 +195,13 @@ def test_faults_status_corrupt_and_bit_flips():
         chip.wait_drdy(0.01)
 
 
-def test_two_chips_on_one_bus_follow_the_shared_clock():
+@pytest.mark.parametrize("batch", [1, 512])
+def test_two_chips_on_one_bus_follow_the_shared_clock(batch):
     from desktop.sim.board import Handheld
     from desktop.sim.scenario import Scenario
     sc = Scenario(seconds=0.3, rate=1000, motion="hand")
-    hw = Handheld(sc, t0=0.0)
+    hw = Handheld(sc, t0=0.0, batch=batch)
+    assert [c.batch for c in hw.chips] == [batch, batch]
     bus = hw.bus
     bus.advance(0.05)
     for i, regs in enumerate(sc.registers()):
@@ -224,3 +226,114 @@ def test_two_chips_on_one_bus_follow_the_shared_clock():
     assert np.array_equal(np.array(rows), np.concatenate(ref, axis=1))
     temp = A.volts_to_temperature(A.codes_to_volts(np.array(rows)[:, 3], 1))
     assert abs(temp.mean() - 25.0) < 0.05
+
+
+def scripted_session(chip):
+    """Drive a chip through a session that touches everything a batch cache
+    depends on; return what the host saw: every byte read, DRDY ticks, violations."""
+    rng = np.random.default_rng(7)
+    t = np.arange(int(0.6 * 16000)) / 16000
+    volts = np.c_[0.01 * np.sin(2 * np.pi * 13 * t), 1e-3 * rng.standard_normal(t.size)]
+    seen = []
+
+    def frames(k):
+        for _ in range(k):
+            chip.wait_drdy()
+            seen.append(chip.tick)
+            chip.select(True)
+            seen.append(chip.transfer(bytes(9)))
+            chip.select(False)
+
+    def command(*data):
+        chip.select(True)
+        chip.transfer([A.SDATAC, *data, A.RDATAC])
+        chip.select(False)
+
+    booted(chip)
+    chip.load(volts[:3200], 16000)                     # the first 0.2 s; the rest comes later
+    wreg(chip, 1, A.standard_registers(dr=4, gain=2, mux=(A.MUX_NORMAL, A.MUX_TEMP))[1:12])
+    chip.transfer([A.RDATAC])
+    chip.select(False)
+    chip.start = True
+    frames(150)
+    command(A.WREG | A.CONFIG1, 0, 3)                 # data rate 2000 -> 1000 SPS mid-stream
+    frames(60)
+    chip.load(volts * 1.5, 16000)                     # new analog input, same time base
+    frames(40)
+    command(A.WREG | A.CH1SET, 0, 0x40)               # gain 4: the schedule runs on
+    frames(30)
+    chip.temperature_c = 40.0                         # read by CH2 (MUX=0100)
+    frames(30)
+    chip.advance(0.0123)                              # unread conversions are replaced
+    frames(20)
+    command(A.STOP)
+    chip.start = False
+    command(A.WREG | A.CONFIG1, 0, 0x80 | 4)          # single shot
+    for _ in range(5):
+        command(A.START)
+        frames(1)
+    seen.append(chip.conversions)
+    seen.append(chip.drdy_falls)
+    seen.append(list(chip.violations))
+    return seen
+
+
+@pytest.mark.parametrize("fault", [None, "status-corrupt", "bit-flips", "clipping"])
+@pytest.mark.parametrize("batch", [7, 512])
+def test_batched_chip_gives_the_unbatched_byte_stream(fault, batch):
+    rate = 0.2 if fault == "status-corrupt" else 0.01 if fault == "bit-flips" else None
+    ref = scripted_session(A.ADS1292(seed=3, fault=fault, fault_rate=rate))
+    got = scripted_session(A.ADS1292(seed=3, fault=fault, fault_rate=rate, batch=batch))
+    assert len(got) == len(ref) > 600
+    assert got == ref
+
+
+def test_batch_can_change_mid_stream_and_rng_can_be_replaced():
+    chips = [dc_chip([1e-3, -1e-3], seed=11, batch=b) for b in (1, 64)]
+    out = [[], []]
+    for step in range(6):
+        for chip, rows in zip(chips, out):
+            if step == 2:
+                chip.batch = 3 if chip.batch > 1 else 1
+            if step == 4:
+                chip.rng = np.random.default_rng(99)
+            for _ in range(20):
+                rows.append(read_frame(chip))
+    assert out[0] == out[1]
+    with pytest.raises(ValueError):
+        chips[0].batch = 0
+
+
+def test_wait_drdy_timeout_below_one_tick_still_moves_time():
+    chip = dc_chip([0.0, 0.0])
+    chip.wait_drdy()
+    tick = chip.tick
+    with pytest.raises(TimeoutError):
+        chip.wait_drdy(timeout=0.3 / A.F_MOD)          # next DRDY is a whole period away
+    assert chip.tick == tick + 1                       # rounded up to the next tick boundary
+    with pytest.raises(TimeoutError):
+        chip.wait_drdy(timeout=0.0)                    # a poll: no time passes
+    assert chip.tick == tick + 1
+    with pytest.raises(ValueError):
+        chip.wait_drdy(timeout=-1e-6)
+    period = chip.config.decimation
+    chip.advance_to_tick(tick + period - 1)
+    assert chip.wait_drdy(timeout=0.5 / A.F_MOD) == 1 / A.F_MOD   # due within the rounded timeout
+    assert chip.tick == tick + period
+    for _ in range(3 * period):                       # retrying on a sub-tick timeout progresses
+        try:
+            chip.wait_drdy(timeout=1e-9)
+        except TimeoutError:
+            pass
+    assert chip.tick == tick + 4 * period
+
+
+def test_bus_wait_drdy_timeout_keeps_the_chips_in_step():
+    a, b = A.ADS1292(fault="drdy-stuck-high"), A.ADS1292()
+    bus = A.SPIBus([a, b])
+    bus.advance(0.05)
+    bus.start = True
+    for _ in range(3):
+        with pytest.raises(TimeoutError):
+            bus.wait_drdy(0, timeout=1e-7)
+    assert a.tick == b.tick == int(0.05 * A.F_MOD) + 3

@@ -212,7 +212,7 @@ def channel_input(x, mux, channel, cfg, temp_c, ticks):
 
 
 def convert(volts, temp_c, cfg, *, first_tick, n, rng, step=8, grid_tick0=0,
-            clipping=False):
+            clipping=False, normals=None):
     """Vectorised conversion results of a continuously running chip.
 
     Parameters
@@ -231,6 +231,11 @@ def convert(volts, temp_c, cfg, *, first_tick, n, rng, step=8, grid_tick0=0,
         Draws the ADC's input-referred noise, (n, 2) normals in conversion order.
     clipping : bool
         Fault injection: drive CH1 beyond positive full scale.
+    normals : (n, 2) float array or None
+        Standard normals for the noise, row i for conversion i; None draws them
+        from `rng` (which is then not used). A Generator's normals come in the
+        same order however they are split into calls, so codes computed from
+        rows of one larger draw equal codes computed draw by draw.
 
     Returns
     -------
@@ -256,7 +261,9 @@ def convert(volts, temp_c, cfg, *, first_tick, n, rng, step=8, grid_tick0=0,
     if temp is None:
         t[:] = 25.0 if temp_c is None else float(temp_c)
     ticks = first_tick + np.arange(n, dtype=np.int64) * d
-    noise = rng.standard_normal((n, 2)) * (NOISE_UV_GAIN6[min(cfg.dr, 6)] * 1e-6)
+    if normals is None:
+        normals = rng.standard_normal((n, 2))
+    noise = normals * (NOISE_UV_GAIN6[min(cfg.dr, 6)] * 1e-6)
     out = np.zeros((n, 2), dtype=np.int32)
     for ch in range(2):
         if cfg.power_down[ch]:
@@ -328,10 +335,14 @@ class ADS1292:
     strict : bool
         Ignore commands that break the datasheet's timing rules (they are
         always recorded in `violations`).
+    batch : int
+        Conversions computed per vectorised :func:`convert` call (see
+        :attr:`batch`); 1 computes each when its DRDY comes due. Any value
+        gives the same codes, DRDY ticks, frames, faults and violations.
     """
 
     def __init__(self, chip_id=0x53, *, seed=None, fault=None, fault_rate=None,
-                 sclk_hz=1_000_000, strict=True, noise=True):
+                 sclk_hz=1_000_000, strict=True, noise=True, batch=1):
         if fault is not None and fault not in FAULTS:
             raise ValueError("unknown fault %r (one of %s)" % (fault, ", ".join(FAULTS)))
         self.chip_id = chip_id
@@ -359,6 +370,11 @@ class ADS1292:
         self.drdy_falls = 0            # DRDY falling edges since power-up
         self._drdy_low = False
         self.start_tick = None         # tick of the last START (pin or command)
+        self._cache = None             # batched codes, see _codes
+        self._normals = np.zeros((0, 2))   # noise normals drawn ahead of use, see _take_normals
+        self._normals_rng = self.rng
+        self._normals_used = 0         # rows of normals consumed since power-up
+        self.batch = batch
         self._power_on_reset()
 
     # ----------------------------------------------------------------- state
@@ -391,6 +407,34 @@ class ADS1292:
         """Chip time since power-up, s."""
         return self.tick / F_MOD
 
+    @property
+    def batch(self):
+        """Conversions computed ahead per vectorised :func:`convert` call (int >= 1).
+
+        One `convert` call costs ~0.5 ms whatever its length, so computing each
+        conversion when its DRDY comes due limits the byte path to ~2000
+        frames/s. With `batch` > 1, when a conversion comes due the chip
+        computes it and up to `batch` - 1 of its successors (no further than
+        the loaded grid reaches) and serves them from a cache while the
+        register map, the analog input (:meth:`load`, `temperature_c`),
+        `noise`, `fault` and the conversion schedule stay the same; anything
+        else recomputes. The noise normals are drawn from `rng` ahead of use
+        and consumed in conversion order, so the codes, DRDY ticks, frames,
+        faults and violations equal those of `batch` = 1 exactly; only
+        `rng`'s state runs ahead (do not share the Generator with anything
+        else). Settable at any time; single-shot conversions are never
+        batched. The loaded `volts` must not be changed in place (call
+        :meth:`load` again).
+        """
+        return self._batch
+
+    @batch.setter
+    def batch(self, n):
+        if int(n) != n or n < 1:
+            raise ValueError("batch must be an integer >= 1, got %r" % (n,))
+        self._batch = int(n)
+        self._cache = None
+
     # ----------------------------------------------------------- analog input
     def load(self, volts, rate_hz=16000, t0=0.0, temperature_c=None):
         """Feed the analog inputs over time.
@@ -416,6 +460,7 @@ class ADS1292:
             raise ValueError("volts must be a non-empty (G, 2) array")
         self._volts, self._step = volts, step
         self._grid_tick0 = int(round(t0 * F_MOD))
+        self._cache = None
         if temperature_c is not None and np.ndim(temperature_c) == 0:
             self.temperature_c, self._temp = float(temperature_c), None
         else:
@@ -429,14 +474,32 @@ class ADS1292:
         self._ticks_f += seconds * F_MOD
         self._run_until(int(self._ticks_f + 1e-6))
 
+    def deadline_tick(self, timeout):
+        """Modulator tick at which a wait of `timeout` s from now gives up.
+
+        Time moves in whole ticks, so the deadline is rounded up to the next
+        tick boundary, and a positive timeout always reaches at least the next
+        tick (a wait shorter than tMOD = 7.8 us still lets time pass, so a
+        caller retrying on TimeoutError cannot loop without progress).
+        `timeout` = 0 is a poll: the deadline is now.
+        """
+        if not timeout >= 0:
+            raise ValueError("timeout must be >= 0 s, got %r" % (timeout,))
+        if timeout == 0:
+            return self.tick
+        end = int(np.ceil(self._ticks_f + timeout * F_MOD - 1e-6))
+        return max(end, self.tick + 1)
+
     def next_drdy_tick(self, timeout=1.0):
-        """Tick of the next DRDY falling edge; TimeoutError (after letting
-        `timeout` s pass) if none comes within it (not started, standby, chip
-        absent or DRDY stuck)."""
+        """Tick of the next DRDY falling edge if it comes by
+        :meth:`deadline_tick` (`timeout`); otherwise advance to that deadline
+        and raise TimeoutError (not started, standby, chip absent, DRDY stuck,
+        or the next DRDY is later)."""
+        deadline = self.deadline_tick(timeout)
         if self._drdy_dead() or self._next_drdy is None or self.standby \
-                or self._next_drdy - self.tick > timeout * F_MOD:
-            self.advance(timeout)
-            raise TimeoutError("no DRDY within %.3f s" % timeout)
+                or self._next_drdy > deadline:
+            self.advance_to_tick(deadline)
+            raise TimeoutError("no DRDY within %.6f s" % timeout)
         return self._next_drdy
 
     def advance_to_tick(self, tick):
@@ -448,8 +511,11 @@ class ADS1292:
     def wait_drdy(self, timeout=1.0):
         """Advance to the next DRDY falling edge; return the seconds waited.
 
-        Raises TimeoutError if no conversion completes within `timeout` s.
-        On a bus use :meth:`SPIBus.wait_drdy`, which moves every chip's clock.
+        Raises TimeoutError, with chip time at :meth:`deadline_tick`, if no
+        conversion completes within `timeout` s (rounded up to whole modulator
+        ticks; any positive timeout lets at least one tick pass, 0 polls
+        without advancing). On a bus use :meth:`SPIBus.wait_drdy`, which moves
+        every chip's clock.
         """
         start = self.tick
         self.advance_to_tick(self.next_drdy_tick(timeout))
@@ -459,11 +525,9 @@ class ADS1292:
         while self._next_drdy is not None and self._next_drdy <= target and not self.standby:
             cfg = self.config
             d = cfg.decimation
-            n = 1 if (cfg.single_shot or self._stop_after_next) else (target - self._next_drdy) // d + 1
-            codes = convert(self._volts, self._temp if self._temp is not None else self.temperature_c,
-                            cfg, first_tick=self._next_drdy, n=n, step=self._step,
-                            rng=self.rng if self.noise else NO_NOISE,
-                            grid_tick0=self._grid_tick0, clipping=self.fault == "clipping")
+            single = cfg.single_shot or self._stop_after_next
+            n = 1 if single else (target - self._next_drdy) // d + 1
+            codes = self._codes(cfg, self._next_drdy, n, single)
             self.tick = self._next_drdy + (n - 1) * d
             self.conversions += n
             self._new_frame(codes[-1])
@@ -475,6 +539,52 @@ class ADS1292:
             else:
                 self._next_drdy = self.tick + d
         self.tick = max(self.tick, target)
+
+    def _codes(self, cfg, first, n, single):
+        """(n, 2) codes of the conversions at ticks first + i * decimation, i < n.
+
+        Served from the batch cache when it holds them, was computed for the
+        same inputs and its noise rows are the next unused ones; else computed
+        with up to `batch` conversions ahead (see :attr:`batch`).
+        """
+        d = cfg.decimation
+        temp = self._temp if self._temp is not None else self.temperature_c
+        # everything convert() reads besides the tick and the noise rows
+        key = (tuple(self.registers), self._step, self._grid_tick0, self.noise,
+               self.fault == "clipping", None if self._temp is not None else self.temperature_c)
+        c = self._cache
+        if c is not None and c[0] == key and c[1] is self._volts and c[2] is self._temp \
+                and self._normals_rng is self.rng:
+            i, r = divmod(first - c[3], d)
+            if r == 0 and i >= 0 and i + n <= len(c[5]) and c[4] + i == self._normals_used:
+                self._take_normals(n)
+                return c[5][i:i + n]
+        m = n
+        if self._batch > 1 and not single:      # single shot: the next START restarts the filter
+            grid_end = self._grid_tick0 + (len(self._volts) - 1) * self._step
+            m = max(n, min(self._batch, (grid_end - first) // d + 1))
+        codes = convert(self._volts, temp, cfg, first_tick=first, n=m, step=self._step,
+                        rng=NO_NOISE, normals=self._peek_normals(m) if self.noise else None,
+                        grid_tick0=self._grid_tick0, clipping=self.fault == "clipping")
+        self._cache = (key, self._volts, self._temp, first, self._normals_used, codes) if m > n else None
+        self._take_normals(n)
+        return codes[:n]
+
+    def _peek_normals(self, m):
+        """The next `m` rows of noise normals from `rng`, not yet consumed: (m, 2)."""
+        if self._normals_rng is not self.rng:   # rng replaced: draw from the new one
+            self._normals, self._normals_rng, self._cache = np.zeros((0, 2)), self.rng, None
+        short = m - len(self._normals)
+        if short > 0:
+            # draws exactly what is missing: with batch = 1 this is the unbatched draw
+            self._normals = np.concatenate([self._normals, self.rng.standard_normal((short, 2))])
+        return self._normals[:m]
+
+    def _take_normals(self, n):
+        """Consume `n` rows of normals (the conversions they belong to happened)."""
+        if self.noise:
+            self._normals = self._normals[n:]
+        self._normals_used += n
 
     def _new_frame(self, codes):
         status = status_word(self.registers[LOFF_STAT], self.registers[GPIO] & 0x03)
@@ -746,15 +856,16 @@ class SPIBus:
 
     def wait_drdy(self, index=0, timeout=1.0):
         """Advance all chips to the next DRDY of chip `index` (the one wired to
-        the MCU); return the seconds waited. TimeoutError as ADS1292.wait_drdy."""
+        the MCU); return the seconds waited. TimeoutError as ADS1292.wait_drdy,
+        with every chip at chip `index`'s deadline tick."""
         chip = self.chips[index]
         start = chip.tick
         try:
             tick = chip.next_drdy_tick(timeout)
-        except TimeoutError:
+        except TimeoutError:                 # chip is at its deadline tick: the others follow
             for other in self.chips:
                 if other is not chip:
-                    other.advance(timeout)
+                    other.advance_to_tick(chip.tick)
             raise
         for c in self.chips:
             c.advance_to_tick(tick)
