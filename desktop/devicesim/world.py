@@ -19,69 +19,15 @@ import tty
 
 import numpy as np
 
-from desktop.sim.ads1292 import ADS1292, SPIBus, convert
+from desktop.sim.ads1292 import ADS1292, SPIBus
 
-BATCH = 512   # conversions computed per vectorised call (see BatchedADS1292)
+BATCH = 512   # conversions each chip computes per vectorised call (ADS1292 `batch`)
 
 GRID_HZ = 16000
 CHUNK_S = 0.5
 _T_MASK = 0x3FFFFFFF
 
 F_DRDY, F_BUTTON, F_SERIAL, F_QUIT = 1, 2, 4, 8
-
-
-class BatchedADS1292(ADS1292):
-    """The emulator chip with its conversions computed BATCH at a time.
-
-    desktop.sim.ads1292 computes each conversion when its DRDY comes due, one
-    vectorised `convert` call (~0.5 ms) per frame: 2 chips x 2000 SPS would run
-    the simulation 2x slower than real time. Here a block of upcoming
-    conversions is computed in one call and served from a cache, valid while
-    the register map, the loaded analog grid and the conversion schedule stay
-    the same; everything else (commands, registers, SPI bytes, DRDY, frames,
-    faults) is the emulator's own code. The codes differ from the unbatched
-    chip's only in the noise draws (same distribution, other order).
-    """
-
-    def load(self, volts, rate_hz=16000, t0=0.0, temperature_c=None):
-        ADS1292.load(self, volts, rate_hz, t0, temperature_c)
-        self._cache = None
-
-    def _codes(self, cfg, first, n):
-        d = cfg.decimation
-        key = (tuple(self.registers), id(self._volts), self._grid_tick0, d)
-        c = getattr(self, "_cache", None)
-        if c is not None and c[0] == key and c[1] <= first and (first - c[1]) % d == 0:
-            i = (first - c[1]) // d
-            if i + n <= len(c[2]):
-                return c[2][i:i + n]
-        grid_end = self._grid_tick0 + (len(self._volts) - 1) * self._step
-        m = max(n, min(BATCH, (grid_end - first) // d + 1))
-        codes = convert(self._volts, self._temp if self._temp is not None else self.temperature_c,
-                        cfg, first_tick=first, n=m, rng=self.rng, step=self._step,
-                        grid_tick0=self._grid_tick0, clipping=self.fault == "clipping")
-        self._cache = (key, first, codes)
-        return codes[:n]
-
-    def _run_until(self, target):
-        # Same schedule as ADS1292._run_until; only where the codes come from differs.
-        while self._next_drdy is not None and self._next_drdy <= target and not self.standby:
-            cfg = self.config
-            d = cfg.decimation
-            single = cfg.single_shot or self._stop_after_next
-            n = 1 if single else (target - self._next_drdy) // d + 1
-            codes = self._codes(cfg, self._next_drdy, n)
-            self.tick = self._next_drdy + (n - 1) * d
-            self.conversions += n
-            self._new_frame(codes[-1])
-            self.drdy_falls += n
-            if single:
-                self._next_drdy = None
-                self._running = self._start_cmd = False
-                self._stop_after_next = False
-            else:
-                self._next_drdy = self.tick + d
-        self.tick = max(self.tick, target)
 
 
 class World:
@@ -93,10 +39,10 @@ class World:
             # desktop.sim.board.Handheld: the simulator's full analog chain, preloaded
             self.chips = handheld.chips
             for c in self.chips:
-                c.__class__ = BatchedADS1292
+                c.batch = BATCH
             self._loaded_to = float("inf")
         else:
-            self.chips = [BatchedADS1292(chip_ids[i], seed=seed + 17 * i, fault=faults[i]) for i in range(2)]
+            self.chips = [ADS1292(chip_ids[i], seed=seed + 17 * i, fault=faults[i], batch=BATCH) for i in range(2)]
             self._loaded_to = -1.0
         self.bus = SPIBus(self.chips)
         self.t_us = 0
