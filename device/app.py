@@ -99,6 +99,7 @@ class App:
         if self.adc is not None:
             self.dec = Decimator(self.adc, c["decim"], c["window"])
         self.sample_hz = c["rate"] / c["decim"]
+        self._house_idles = max(1, c["rate"] * _HOUSE_MS // 1000)
         self.survey = Survey(c, c["window"], self.sample_hz)
         self.scale = (c["scale_x"], c["scale_y"], c["scale_z"])
         if c["log"] and self.log is None:
@@ -126,18 +127,32 @@ class App:
             self.log.close()
 
     def wait(self, stop=None):
-        """Idle until a decimated sample is ready or _HOUSE_MS passed (or stop() is true)."""
+        """Idle until a decimated sample is ready or _HOUSE_MS passed (or stop() is true).
+
+        idle() returns after every DRDY (the IRQ wakes the core), so the loop
+        counts DRDY periods instead of reading the clock on each: one method
+        call per wake-up, not three.
+        """
         b = self.board
         adc = self.adc if not self.fault else None
-        t0 = b.ticks_ms()
-        while not b.quit_requested():
-            if adc is not None and adc.available():
+        if adc is None:   # no conversions to count: by the clock
+            t0 = b.ticks_ms()
+            while not b.quit_requested() and not (stop is not None and stop()):
+                b.idle()
+                if b.ticks_diff(b.ticks_ms(), t0) >= _HOUSE_MS:
+                    return
+            return
+        n = self._house_idles
+        avail = adc.available
+        while n > 0:
+            if avail():
                 return
             if stop is not None and stop():
                 return
-            b.idle()
-            if b.ticks_diff(b.ticks_ms(), t0) >= _HOUSE_MS:
+            if b.quit_requested():
                 return
+            b.idle()
+            n -= 1
 
     def step(self):
         if self.adc is not None and not self.fault:

@@ -25,7 +25,9 @@ gate's ~7 degree turn per sample.
    >= 3 samples whose calibrated |B| departs from the fitted field by more
    than max(outlier_nt, 4 rms + 2 predicted error) is dropped; three in a row
    make a disturbance, and the samples accepted in the second before it are
-   removed from the fit again (fit.remove is exact).
+   removed from the fit again (fit.remove is exact), and every sample is
+   rejected until |B| has stayed within a tenth of the gate for a second
+   (the dipole's 1/r^3 tail, tests/test_device_calibration.py).
 
 The fit runs on the full boxcar sums (units: code/window; exact integers:
 EllipsoidFit.add costs the same ~25 us on the unix port for 17- to 24-bit
@@ -94,6 +96,7 @@ class Session:
         self._fresh = True          # no previous sample to compare with
         self._px = self._py = self._pz = 0
         self._dist_run = 0
+        self._hold = 0              # samples still to reject after a disturbance
         self._hist = array("i", bytes(4 * 5 * _HIST))  # x, y, z, sample index, cell
         self._hn = 0
         self._hi = 0
@@ -146,15 +149,25 @@ class Session:
         # in a cell that already holds samples, and once its predicted error is
         # well below the gate. A new orientation is never called a disturbance.
         pc = self.provisional
-        if pc is not None and n >= 3:
+        if pc is not None and (n >= 3 or self._hold):
             dev = abs(pc.magnitude(sx, sy, sz) - pc.field)
             if dev > self._dist_limit:
                 self.rej_dist += 1
                 self._dist_run += 1
                 if self._dist_run == _RUN:
                     self._backoff()   # a disturbance, not a lone outlier: its onset went in
+                    self._hold = self._back
                 return False
             self._dist_run = 0
+            if self._hold:
+                # back-off: a dipole's 1/r^3 tail stays above the noise long after it
+                # falls under the gate; hold until it is under a tenth of the gate for 1 s
+                self.rej_dist += 1
+                if dev > 0.1 * self._dist_limit:
+                    self._hold = self._back
+                else:
+                    self._hold -= 1
+                return False
         self.fit.add(sx, sy, sz)
         counts[cell] = n + 1
         h = self._hist

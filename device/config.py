@@ -22,8 +22,9 @@ SCHEMA = {
     "pin_reset": (26, "pin", 0, 0),
     "pin_button": (15, "pin", 0, 0),
     "pin_led": (25, "pin", 0, 0),
-    # ADC: 2000 SPS: the nearest ADS1292 rate below the paper's 3 kHz that keeps
-    # the ISR under ~25 % of a 133 MHz M0+ (docs/firmware.md, duty cycle)
+    # ADC: 2000 SPS keeps the boxcar at the simulator's 2.5 ms (5 frames) with a
+    # sinc3 of its own only 1.5 ms long (3/fDR, [DS] §8.3.3); the cost per DRDY edge
+    # outside the boxcar is a counter (docs/firmware.md, sweep)
     "rate": (2000, "int", 125, 8000),
     "gain_x": (1, "int", 1, 12),
     "gain_y": (1, "int", 1, 12),
@@ -35,11 +36,15 @@ SCHEMA = {
     "scale_x": (0.012983, "float", 1e-6, 1e3),
     "scale_y": (0.012983, "float", 1e-6, 1e3),
     "scale_z": (0.012983, "float", 1e-6, 1e3),
-    # decimation: 5-frame (2.5 ms) boxcar -> 400 samples/s to the gates; the
-    # simulator's smearing experiment (docs/simulator.md): 2.5 ms + a 1 rev/s
-    # gate scores the same as fitting every conversion (0.43 nT PTP)
-    "decim": (5, "int", 1, 256),
-    "window": (5, "int", 1, 256),
+    # decimation: a 5-frame (2.5 ms) boxcar every 20 frames -> 100 samples/s to the
+    # gates. The smearing experiment (docs/simulator.md): a 2.5 ms boxcar + a 1 rev/s
+    # gate scores like fitting every conversion; the fit needs a few thousand
+    # samples, not 400/s. The sweep in docs/firmware.md (python -m desktop.bench_device):
+    # 2000/5/5 needs ~60 % of an RP2040 (40x the unix port) while calibrating,
+    # 2000/20/5 ~30 % at the same accuracy, so 20 leaves headroom for streaming and
+    # the 25-60x uncertainty. window <= 64 keeps the handler's sums below 2**30.
+    "decim": (20, "int", 1, 256),
+    "window": (5, "int", 1, 64),
     # calibration
     "field_nt": (None, "opt_float", 1000.0, 100000.0),  # local field if known (e.g. IGRF)
     "field_tol": (0.05, "float", 0.001, 0.5),     # accepted |fitted/configured - 1|

@@ -3,9 +3,12 @@
 # board answers register access from a 12-byte register file and DRDY reads from a
 # table of real frames (a hand-rotation capture encoded by the host), so the
 # timings are the driver, ring, decimator, gates, fit and survey only.
-# argv: frames_file root rate hour_rate. Heap figures exclude the frame table
-# (harness data, loaded before the firmware; the run gets 256 KB on top of it).
+# argv: frames_file root rate decim window seconds hour(0/1). Heap figures exclude
+# the frame table (harness data, loaded before the firmware; 256 KB on top of it).
+# SPI reads are two C calls (seek, readinto) like machine.SPI.readinto between
+# two Pin calls; the harness's own per-frame work is measured and subtracted.
 import gc
+import io
 import sys
 import time
 
@@ -17,8 +20,11 @@ class LoopBoard:
     DATA_BAUD = 8000000
 
     def __init__(self, frames, root, rate):
-        self.frames = frames
         self.nf = len(frames) // (2 * FRAME)
+        self.src = io.BytesIO(frames)
+        self._seek = self.src.seek
+        self._readinto = self.src.readinto
+        self._cs = (abs, abs)   # stands in for the CS Pin calls of hal_micropython
         self.k = 0
         self.root = root
         self.name = "bench-loopback"
@@ -41,10 +47,10 @@ class LoopBoard:
             r[2] = self.regs[chip][w[0] & 0x1F]
 
     def spi_readinto(self, chip, buf):
-        i = (self.k * 2 + chip) * FRAME
-        f = self.frames
-        for j in range(FRAME):
-            buf[j] = f[i + j]
+        cs = self._cs[chip]
+        cs(0)
+        self._readinto(buf)
+        cs(1)
 
     def set_start(self, v):
         pass
@@ -84,7 +90,11 @@ class LoopBoard:
 
     def idle(self):
         self.t_us += self.dt
-        self.k = (self.k + 1) % self.nf
+        k = self.k + 1
+        if k == self.nf:
+            k = 0
+        self.k = k
+        self._seek(k * 18)
         if self.handler is not None:
             self.handler(None)
 
@@ -107,91 +117,115 @@ def heap():
     return gc.mem_alloc() - BASE[0]
 
 
-def run_frames(app, board, n):
+def per_frame(board, n):
+    """us per DRDY edge: n idles (harness + handler)."""
+    t0 = time.ticks_us()
     for _ in range(n):
         board.idle()
+    return time.ticks_diff(time.ticks_us(), t0) / n
+
+
+def run_loop(app, board, frames):
+    """The real main loop (App.step + App.wait) over `frames` DRDY edges; returns us."""
+    k0 = board.t_us
+    end = k0 + frames * board.dt
+    t0 = time.ticks_us()
+    while board.t_us < end:
         app.step()
+        app.wait()
+    return time.ticks_diff(time.ticks_us(), t0)
 
 
 def main():
-    frames_file, root, rate, hour_rate = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+    frames_file, root = sys.argv[1], sys.argv[2]
+    rate, decim, window, seconds, hour = (int(a) for a in sys.argv[3:8])
     with open(frames_file, "rb") as f:
         frames = f.read()
     gc.collect()
     BASE[0] = gc.mem_alloc()
     import app as appmod
     import store
+    from ads1292 import OVERFLOW
     out = {}
-    store.save(root, "config", {"rate": rate, "scale_x": 0.0144, "scale_y": 0.0144, "scale_z": 0.0144,
-                                "auto_finish": False})
+    store.save(root, "config", {"rate": rate, "decim": decim, "window": window, "scale_x": 0.0144,
+                                "scale_y": 0.0144, "scale_z": 0.0144, "auto_finish": False})
     board = LoopBoard(frames, root, rate)
     app = appmod.App(board)
     out["heap_boot"] = heap()
     adc, dec = app.adc, app.dec
 
-    # acquisition path: ISR (2 SPI reads, parse, ring) + decimator, per frame
     def nop(a, b, c, d):
         pass
+    # DRDY handler cost by kind of frame, minus the harness's own idle()
     n = 20000
+    h = board.handler
+    board.handler = None
+    harness = per_frame(board, n)
+    board.handler = h
+    adc.set_decimation(1000, 1)
+    out["us_isr_skip"] = per_frame(board, n) - harness          # not in the window: counter only
+    adc.set_decimation(64, 64)
+    out["us_isr_read"] = per_frame(board, n) - harness          # read, parse, sum (no push)
+    adc.set_decimation(1, 1)
     t0 = time.ticks_us()
-    for _ in range(n):
+    for i in range(n):
         board.idle()
-        dec.poll(nop, 8)
-    out["us_per_frame_acq"] = time.ticks_diff(time.ticks_us(), t0) / n
-    t0 = time.ticks_us()
-    for _ in range(n):
-        board.idle()
-    out["us_per_frame_isr"] = time.ticks_diff(time.ticks_us(), t0) / n
-    dec.poll(nop, 100000)
+        if i & 31 == 31:
+            dec.poll(nop, 64)
+    # read + push + pop from the ring (the decimator's share per sample)
+    out["us_isr_push"] = time.ticks_diff(time.ticks_us(), t0) / n - harness - out["us_isr_read"]
+    out["us_harness"] = harness
+    app._setup_pipeline()   # back to the configured decim/window
+    dec = app.dec
+    frames_run = seconds * rate
+    fd = (window * out["us_isr_read"] + (decim - window) * out["us_isr_skip"] + out["us_isr_push"]) / decim
 
-    # calibration path: everything per decimated sample (gates, coverage, fit.add,
-    # temperature, survey |h_c|) measured as the whole main loop minus acquisition
+    # calibration: the real loop over `seconds` of data (gates, coverage, fit.add,
+    # provisional solves every solve_every_s, progress events, LED, button)
     app._start_session()
     s = app.session
-    n = 60000
-    t0 = time.ticks_us()
-    run_frames(app, board, n)
-    dt = time.ticks_diff(time.ticks_us(), t0)
-    samples = n // app.cfg["decim"]
-    out["us_per_sample_cal"] = (dt - n * out["us_per_frame_acq"]) / samples
+    dt = run_loop(app, board, frames_run) - frames_run * harness
+    out["cal_us_per_s"] = dt / seconds
+    out["cal_samples"] = s.seen
     out["cal_accepted"] = s.fit.n
+    out["cal_rej"] = [s.rej_rate, s.rej_cap, s.rej_dist]
     out["heap_cal"] = heap()
     t0 = time.ticks_ms()
     cal = s._solve()
     out["ms_solve"] = time.ticks_diff(time.ticks_ms(), t0)
     out["solve_iterations"] = cal.diagnostics.get("iterations")
-    out["heap_peak_note"] = "mem_alloc after gc.collect"
     r = app._finish_session()
     out["cal_state"] = r["state"]
 
-    # survey path: per decimated sample with the calibration applied, streaming off, logging on
+    # survey: stream off (the handheld alone), then stream corrected at 10 Hz + log on
+    dt = run_loop(app, board, frames_run) - frames_run * harness
+    out["survey_us_per_s"] = dt / seconds
     app.cfg["log"] = True
+    app.stream = "corrected"
     app._setup_pipeline()
-    n = 20000
-    t0 = time.ticks_us()
-    run_frames(app, board, n)
-    dt = time.ticks_diff(time.ticks_us(), t0)
-    out["us_per_sample_survey"] = (dt - n * out["us_per_frame_acq"]) / (n // app.cfg["decim"])
+    dt = run_loop(app, board, frames_run) - frames_run * harness
+    out["stream_us_per_s"] = dt / seconds
+    out["frame_us_model"] = fd
     out["heap_survey"] = heap()
-
-    # a simulated hour of survey (logging to rotating files) at hour_rate SPS
-    app.cfg["rate"] = hour_rate
-    board.dt = 1000000 // hour_rate
+    app.stream = "off"
     app._setup_pipeline()
-    per_min = 60 * hour_rate
-    run_frames(app, board, per_min)   # warm-up: one minute
-    h0 = heap()
-    marks = []
-    for minute in range(1, 60):
-        run_frames(app, board, per_min)
-        if minute % 10 == 9:
-            marks.append(heap())
-    out["heap_hour_start"] = h0
-    out["heap_hour_marks"] = marks
-    out["heap_growth_hour"] = marks[-1] - h0
-    out["log_lines"] = app.log.lines if app.log else 0
-    out["log_error"] = app.log.error if app.log else None
-    out["overflow"] = adc.state[2]
+
+    if hour:
+        # a simulated hour of survey (logging to rotating files) at the configured rate
+        per_min = 60 * rate
+        run_loop(app, board, per_min)   # warm-up: one minute
+        h0 = heap()
+        marks = []
+        for minute in range(1, 60):
+            run_loop(app, board, per_min)
+            if minute % 10 == 9:
+                marks.append(heap())
+        out["heap_hour_start"] = h0
+        out["heap_hour_marks"] = marks
+        out["heap_growth_hour"] = marks[-1] - h0
+        out["log_lines"] = app.log.lines if app.log else 0
+        out["log_error"] = app.log.error if app.log else None
+    out["overflow"] = adc.state[OVERFLOW]
     out["heap_total"] = gc.mem_alloc() + gc.mem_free() - BASE[0]
     import json
     print(json.dumps(out))

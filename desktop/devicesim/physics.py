@@ -15,6 +15,7 @@ Units: nT, seconds, volts; arrays (N, 3) are x, y, z in the sensor frame.
 import numpy as np
 
 from desktop.synth import Sensor
+from desktop.synth import _rotation as _rotmat   # exact rotation from a rotation vector (Rodrigues)
 
 KNOT_HZ = 200
 # Bartington Mag649: 0.1 V/uT (1e-4 V/nT), +-100 uT; a 4.5:1 divider keeps
@@ -40,15 +41,6 @@ def _rotate(v, axis_angle):
     s = np.sin(ang)
     kv = np.sum(k * v, axis=-1, keepdims=True)
     return v * c + np.cross(k, v) * s + k * kv * (1.0 - c)
-
-
-def _rotmat(phi):
-    a = np.linalg.norm(phi)
-    if a < 1e-15:
-        return np.eye(3)
-    k = phi / a
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + np.sin(a) * kx + (1.0 - np.cos(a)) * (kx @ kx)
 
 
 class Motion:

@@ -56,7 +56,7 @@ def send(dev, world, line, dt=0.05):
 
 
 def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s=120.0, spin_s=10.0,
-                         noise_nt=0.1, rate=2000, progress=None, motion_seed=11, **config):
+                         noise_nt=0.1, rate=2000, progress=None, motion_seed=11, cal_world=None, **config):
     """Calibrate on one simulated capture (hand), verify on another (spin), same sensor.
 
     Like the real procedure: the firmware boots, the operator presses the
@@ -64,12 +64,14 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
     passes (then presses again); later the instrument is switched on again
     (the calibration comes back from flash) and turned once about the vertical.
     The sensor, front end and motions are the simulator's (desktop.sim.board).
+    cal_world: extra desktop.sim.scenario.Scenario settings for the calibration
+    capture only (e.g. a passing dipole); the verification spin stays clean.
     """
     os.makedirs(root, exist_ok=True)
     write_config(root, scale_x=HANDHELD_NT_PER_CODE, scale_y=HANDHELD_NT_PER_CODE,
                  scale_z=HANDHELD_NT_PER_CODE, rate=rate, **config)
     w = handheld_world(serial=None, motion="hand", seconds=rotate_s + 3.0, seed=seed,
-                       motion_seed=motion_seed, noise=noise_nt, rate=rate)
+                       motion_seed=motion_seed, noise=noise_nt, rate=rate, **(cal_world or {}))
     dev = start_device(w, root, kind=kind)
     try:
         dev.run_until(0.5)
@@ -96,6 +98,7 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
                     done = e
         send(dev, w, "get-coverage")
         cov = events(w)[-1]
+        collecting = [e for e in events(w, "cal") if e.get("state") == "collecting"]
         cal_lines = w.lines()
     finally:
         dev.close()
@@ -133,6 +136,7 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
         "status": status,
         "cal_lines": cal_lines,
         "coverage": cov if cov.get("ok") else None,
+        "last_progress": collecting[-1] if collecting else None,
         "ready_at_s": next((e["t_s"] for e in _progress(cal_lines) if e.get("ready")), None),
         "lines": w2.lines(),
         "world": w,
