@@ -328,6 +328,7 @@ class App:
             out["frames"] = st[FRAMES]
             out["overflow"] = st[OVERFLOW]
             out["badsync"] = st[BADSYNC]
+            out["discarded"] = self.dec.discarded
             out["gaps"] = self.dec.gaps
             out["samples"] = self.dec.samples
         if self.session is not None:
