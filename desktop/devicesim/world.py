@@ -154,8 +154,6 @@ class World:
         limit = self._next_event(t)
         flags = 0
         if limit > t:
-            # time moves in whole modulator ticks: never wait less than two
-            limit = max(limit, t + 2.0 / 128000.0)
             c0 = self.chips[0]
             if self.start_level and c0._next_drdy is not None:
                 self._ensure(t + (c0._next_drdy - c0.tick) / 128000.0 + 0.001)
