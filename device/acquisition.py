@@ -14,7 +14,8 @@ acquisition path per sample, and the fit needs a few thousand samples, not
 hundreds of thousands (docs/firmware.md, the sweep).
 
 Continuity: every ring slot carries the handler's block number; a jump means
-blocks were lost (ring overflow, or a block discarded for a bad frame). It is
+blocks were lost (ring overflow, or blocks discarded for a bad frame or a
+polled-DRDY gap). It is
 counted in `gaps` and reported to `on_gap` so the calibration does not
 compare two samples that are not neighbours in time.
 """
@@ -36,7 +37,7 @@ class Decimator:
 
     @property
     def discarded(self):
-        """Blocks the handler threw away for a bad status header."""
+        """Blocks thrown away for a bad status header or a DRDY gap (polled DRDY)."""
         return self.adc.state[DISCARDED]
 
     def poll(self, on_sample, limit=16, on_gap=None):

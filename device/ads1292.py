@@ -21,6 +21,14 @@ with shifts and summed (|sum| <= window * 2**23 <= 2**29 for window <= 64,
 inside the small-int range). A finished block goes into an array('i') ring as
 five ints (x, y, z, temperature sums, block number). A full ring drops the
 block and counts it; a block with a bad status header is discarded and counted.
+
+Polled DRDY (CircuitPython): conversions that come and go while the main loop
+is busy never reach `isr`. The HAL measures the time since the last serviced
+DRDY and calls `account_gap(frames)` from the main loop before the handler, so
+the frame counter and the boxcar phase stay in step with the chip and a boxcar
+never sums frames from both sides of a gap. Every completed block number is
+accounted for: pushed to the ring, dropped (`OVERFLOW`) or thrown away
+(`DISCARDED`: a bad header, or a DRDY gap).
 """
 
 from array import array
@@ -81,9 +89,10 @@ FRAMES = const(3)     # DRDY edges seen (wraps at 2**30)
 BADSYNC = const(4)    # frames whose status header was not 1100 (their block is discarded)
 _PHASE = const(5)     # position of the next frame in its block, 0..decim-1
 _SPOIL = const(6)     # 1 when the open block holds a bad frame
-DISCARDED = const(7)  # blocks discarded for a bad frame
+DISCARDED = const(7)  # blocks discarded: a bad frame, or a DRDY gap (account_gap)
 BLOCKS = const(8)     # blocks completed (wraps at 2**30): the ring's sequence numbers
-_NSTATE = const(9)
+MISSED = const(9)     # conversions that passed unseen (polled DRDY): account_gap
+_NSTATE = const(10)
 MAX_WINDOW = const(64)   # window * 2**23 must stay below 2**30 (small int in the ISR)
 _MASK30 = const(0x3FFFFFFF)
 
@@ -275,6 +284,43 @@ class ADS1292Pair:
         """Internal sensor: T = (V_uV - 145300) / 490 + 25 (§8.3.2.4 Eq. 3), gain 1."""
         uv = code * self.lsb_volts(1) * 1e6
         return (uv - 145300.0) / 490.0 + 25.0
+
+    # ****** main loop, polled DRDY only ******
+    def account_gap(self, frames):
+        """`frames` conversions passed unseen (the main loop was busy; polled DRDY).
+
+        Called by a polling HAL from the main loop, before the handler services
+        the next conversion; never while `isr` can run (with a hard IRQ nothing
+        is missed: the ring absorbs a stall). Advances FRAMES and the boxcar
+        phase as `isr` would have, counts `frames` in MISSED, and throws away
+        (DISCARDED) every block whose window lost a frame: the open block if the
+        gap reaches its window, and every block that ended inside the gap. The
+        block numbers still advance, so the main loop sees the gap. Integers stay
+        below 2**30: `frames` is clipped to 2**29 (4.6 min at 2000 SPS).
+        """
+        if frames < 1:
+            return
+        if frames > 0x20000000:
+            frames = 0x20000000
+        st = self.state
+        st[MISSED] = (st[MISSED] + frames) & _MASK30
+        st[FRAMES] = (st[FRAMES] + frames) & _MASK30
+        end = st[_PHASE] + frames   # position after the gap, from the open block's start
+        ends = end // self.decim    # blocks whose last frame (always in the window) was lost
+        q = end - ends * self.decim
+        if ends:
+            st[BLOCKS] = (st[BLOCKS] + ends) & _MASK30
+            st[DISCARDED] = (st[DISCARDED] + ends) & _MASK30
+            a = self.acc
+            a[0] = 0
+            a[1] = 0
+            a[2] = 0
+            a[3] = 0
+            # the new open block lost its first q frames: harmless before its window
+            st[_SPOIL] = 1 if q > self._first else 0
+        elif end > self._first:
+            st[_SPOIL] = 1          # the gap reaches into the open block's window
+        st[_PHASE] = q
 
     # ****** interrupt path: no allocation below ******
     def _isr(self, _pin=None):

@@ -17,7 +17,7 @@ import json
 import config as cfgmod
 import store
 from acquisition import Decimator
-from ads1292 import ADS1292Pair, OVERFLOW, BADSYNC, FRAMES
+from ads1292 import ADS1292Pair, OVERFLOW, BADSYNC, FRAMES, MISSED
 from button import Button, SHORT, LONG
 from led import Led
 import led as ledp
@@ -29,6 +29,10 @@ import calibrate
 FIRMWARE_VERSION = "0.1.0"
 _DRAIN = 16      # samples per loop pass: bounds the latency of button and serial
 _HOUSE_MS = 20   # button, serial and LED at least every 20 ms (debounce is 30 ms)
+# board.busy keys: the main loop's work, charged as simulated time by hal_sim
+_SOLVE = "solve"
+_SAMPLE_CAL = "sample_cal"
+_SAMPLE = "sample"
 
 
 def _r(x, nd=3):
@@ -86,9 +90,10 @@ class App:
             if self.adc is None:
                 self.adc = ADS1292Pair(self.board, c["rate"], (c["gain_x"], c["gain_y"], c["gain_z"]), c["vref_4v"])
                 self.adc.begin()
-                self.board.attach_drdy(self.adc.isr)
             else:
                 self.adc.reconfigure(c["rate"], (c["gain_x"], c["gain_y"], c["gain_z"]))
+            # again after a reconfigure: a polling HAL restarts its gap clock at the new rate
+            self.board.attach_drdy(self.adc.isr, self.adc.rate, self.adc.account_gap)
             self.fault = None
         except OSError as e:
             self.fault = str(e)
@@ -155,8 +160,11 @@ class App:
             n -= 1
 
     def step(self):
+        b = self.board
         if self.adc is not None and not self.fault:
-            self.dec.poll(self._sample_cb, _DRAIN, self._gap_cb)
+            n = self.dec.poll(self._sample_cb, _DRAIN, self._gap_cb)
+            if n:
+                b.busy(_SAMPLE_CAL if self.session is not None else _SAMPLE, n)
         ev = self.button.poll()
         if ev == SHORT:
             if self.session is None:
@@ -174,6 +182,8 @@ class App:
         if s is not None:
             now = self.board.ticks_ms()
             solved = s.tick(now, self.board.ticks_diff)
+            if solved:
+                b.busy(_SOLVE)
             if self.board.ticks_diff(now, self.last_progress) >= 1000:
                 self.last_progress = now
                 self.proto.event("cal", s.progress())
@@ -255,6 +265,7 @@ class App:
         self.last_coverage = s.cov
         gc.collect()
         cal, reason, msg = s.finish()
+        self.board.busy(_SOLVE)
         result = {"state": s.state, "n": s.fit.n, "coverage": _r(s.coverage())}
         if cal is None:
             result["reason"] = reason
@@ -327,6 +338,7 @@ class App:
         if st is not None:
             out["frames"] = st[FRAMES]
             out["overflow"] = st[OVERFLOW]
+            out["missed"] = st[MISSED]
             out["badsync"] = st[BADSYNC]
             out["discarded"] = self.dec.discarded
             out["gaps"] = self.dec.gaps

@@ -2,9 +2,23 @@
 
 The contract is documented in hal_sim.py. Pins in config.json are board names
 ("GP18", "D5", ...), looked up in `board`. CircuitPython has no user
-interrupts, so `idle()` polls DRDY and calls the handler itself; at 2000 SPS a
-main-loop pass must come back within 0.5 ms or frames are replaced unread
-(counted as gaps by the frame numbers, never mixed into one sample).
+interrupts, so `idle()` polls DRDY and calls the handler itself. While the
+main loop is busy (a sample ~2 ms, a solve ~0.2 s on an RP2040) conversions
+are replaced unread (the ADS1292 keeps only the latest). On the next DRDY the
+board measures the time since the last serviced one and reports the unseen
+conversions to the driver (`ADS1292Pair.account_gap`): counted in `missed`,
+the boxcar kept in phase, the block they hit discarded.
+
+Clock: `time.monotonic_ns()` where the build has long ints (raspberrypi,
+espressif): 1/1024 s ticks plus 1/32 subticks, 30.5 us resolution (976.6 us on
+ports without subticks). Else `supervisor.ticks_ms()`: ~1 ms (1/1024 s ticks);
+at 2000 SPS that leaves the count uncertain by about 2 and gaps under ~2 ms
+unseen. The serviced conversion is the latest, up to one period old, and the
+one before it was normally serviced promptly by the poll loop, so the count
+is floor(elapsed * rate) - 1 (exact then; one low when both services were late).
+After each service one byte is clocked with both CS high: DRDY returns high on
+the first SCLK (section 8.5.1.6) even for a frame the handler did not read, so the
+next low level is the next conversion, never the same one twice.
 Serial: usb_cdc.data if enabled in boot.py (a second, binary-clean port),
 else the console via supervisor.runtime.serial_bytes_available.
 """
@@ -26,6 +40,13 @@ except (ImportError, AttributeError):
 
 _TICKS_PERIOD = 1 << 29      # supervisor.ticks_ms wraps at 2**29 ms
 _TICKS_HALF = _TICKS_PERIOD // 2
+_GAP_MS_MAX = 131071         # ms * 8000 SPS stays a small int (2**30) without long ints
+
+try:
+    _now_ns = time.monotonic_ns   # needs long ints (MPZ): raspberrypi, espressif ports
+except AttributeError:
+    _now_ns = None                # LONGINT_IMPL = NONE builds: supervisor.ticks_ms
+_RES_US = 31                      # monotonic_ns resolution, 1/32768 s
 
 
 def _pin(name):
@@ -61,7 +82,10 @@ class Board:
         self._keys = keypad.Keys((_pin(cfg["pin_button"]),), value_when_pressed=False, pull=True)
         self._pressed = False
         self._handler = None
-        self._was_low = False
+        self._rate = 0
+        self._on_gap = None
+        self._last = None           # clock at the last serviced DRDY
+        self._clk1 = bytearray(1)   # one SCLK byte with CS high releases DRDY
 
     def set_spi_rate(self, hz):
         self.baud = hz
@@ -108,8 +132,11 @@ class Board:
     def drdy(self):
         return not self._drdy.value
 
-    def attach_drdy(self, handler):
+    def attach_drdy(self, handler, rate=0, on_gap=None):
         self._handler = handler
+        self._rate = rate
+        self._on_gap = on_gap
+        self._last = None   # conversions (re)started: nothing to measure from yet
 
     def ticks_ms(self):
         return supervisor.ticks_ms()
@@ -133,13 +160,40 @@ class Board:
     def quit_requested(self):
         return False
 
+    def busy(self, what, n=1):
+        pass   # the simulator charges main-loop work here; hardware just did it
+
     def idle(self):
-        # Poll for the falling edge: call the handler once per low period.
-        low = not self._drdy.value
-        if low and not self._was_low and self._handler is not None:
-            self._handler(None)
-            low = False   # reading the frame released DRDY (§8.5.1.6)
-        self._was_low = low
+        # Poll: DRDY low is a conversion not yet serviced (released after each one)
+        if self._drdy.value or self._handler is None:
+            return
+        if self._on_gap is not None:
+            self._gap()
+        self._handler(None)
+        self.spi.write(self._clk1)   # all CS high: only releases DRDY (section 8.5.1.6)
+
+    def _gap(self):
+        """Report the conversions that came and went since the last serviced DRDY."""
+        rate = self._rate
+        last = self._last
+        if _now_ns is not None:
+            now = _now_ns() // 1000
+            self._last = now
+            if last is None:
+                return
+            k = (now - last + _RES_US) * rate // 1000000 - 1
+        else:
+            now = supervisor.ticks_ms()
+            self._last = now
+            if last is None:
+                return
+            ms = min(self.ticks_diff(now, last), _GAP_MS_MAX)
+            # only what the 1 ms clock can tell: more than 1.5 periods beyond its resolution
+            if ms * rate < 1500 + rate:
+                return
+            k = (ms * rate + 500) // 1000 - 1
+        if k >= 1:
+            self._on_gap(k)
 
     def serial_read(self):
         if _data is not None:

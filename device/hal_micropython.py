@@ -105,7 +105,9 @@ class Board:
     def drdy(self):
         return self._drdy() == 0
 
-    def attach_drdy(self, handler):
+    def attach_drdy(self, handler, rate=0, on_gap=None):
+        # rate and on_gap are for polling HALs: a hard IRQ sees every DRDY,
+        # and during a main-loop stall the ring absorbs the samples (docs/firmware.md)
         try:
             self._drdy.irq(handler=handler, trigger=machine.Pin.IRQ_FALLING, hard=True)
         except TypeError:  # esp32: no hard IRQs; the handler is scheduled
@@ -136,6 +138,9 @@ class Board:
 
     def idle(self):
         machine.idle()   # sleeps until the next interrupt (DRDY within 1/rate s)
+
+    def busy(self, what, n=1):
+        pass             # the simulator charges main-loop work here; hardware just did it
 
     # serial (USB CDC)
     def serial_read(self):

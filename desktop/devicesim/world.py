@@ -60,6 +60,7 @@ class World:
         self._tx = bytearray()      # bytes not yet accepted by the pty
         self.xfers = 0
         self.idles = 0
+        self.stalls = []            # (t, seconds, chip 0 conversions) at each charged main-loop stall
         self.master = self.slave = None
         self.serial_port = None
         if serial == "pty":
@@ -147,11 +148,16 @@ class World:
         self._advance(us / 1e6)
         self._sync_time()
 
-    def idle(self):
-        """Advance to the next DRDY edge of chip 0 (or the next scripted event, or the budget)."""
+    def idle(self, max_us=0):
+        """Advance to the next DRDY edge of chip 0 (or the next scripted event, or the budget).
+
+        max_us > 0: a charged main-loop stall in IRQ mode (hal_sim.Board.busy):
+        return at the next DRDY or after max_us, whatever the run budget says,
+        since the firmware is busy and sees neither the button nor the budget.
+        """
         self.idles += 1
         t = self.time
-        limit = self._next_event(t)
+        limit = t + max_us / 1e6 if max_us else self._next_event(t)
         flags = 0
         if limit > t:
             c0 = self.chips[0]
@@ -177,6 +183,12 @@ class World:
         self.flags = flags
         self.pending = min(len(self._rx), 0xFFFF)
         self._sync_time()
+
+    def stall(self, us, advance):
+        """A charged main-loop stall starts (hal_sim.Board.busy); advance: polled, let it pass."""
+        self.stalls.append((self.time, us / 1e6, self.chips[0].conversions))
+        if advance:
+            self.sleep_us(us)
 
     def serial_read(self):
         data = bytes(self._rx)
