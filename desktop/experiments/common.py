@@ -89,7 +89,12 @@ def write_table(path, title, header, rows, notes=""):
 
 
 def figure():
-    import matplotlib
+    try:
+        import matplotlib
+    except ImportError:
+        from desktop.errors import CommandError
+
+        raise CommandError("the experiments draw plots with matplotlib: pip install 'fluxcal[plots]'")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
