@@ -67,6 +67,28 @@ def test_float32_reaches_the_same_fixed_point(field):
     assert abs(a.field - b.field) < 4 * 2.0**-24 * FIELD
 
 
+@pytest.mark.parametrize("case", SCENARIOS[:4], ids=lambda c: "-".join(str(v) for v in c.values()))
+def test_narrow_floats_stop_on_the_same_integers(case, monkeypatch):
+    # The claim behind the design: only the step direction is computed in
+    # the narrow type, so the fixed-point parameter state at convergence is
+    # identical, integer for integer, in double, float32 and 22-bit floats.
+    import shared.solver as solver
+
+    states = []
+    finish = solver._finish
+
+    def spy(pb, pr, st, *args):
+        states.append((list(st.a_int), list(st.f_int)))
+        return finish(pb, pr, st, *args)
+
+    monkeypatch.setattr(solver, "_finish", spy)
+    raw, _, _ = scenario(21, **case)
+    fit = accumulate(raw, LSB)
+    for num in (float, np.float32, RoundedFloat(22)):
+        fit.solve(scale=LSB, num=num)
+    assert states[0] == states[1] == states[2]
+
+
 @pytest.mark.parametrize("bits", [22, 24])
 def test_narrow_float_class(bits):
     # CircuitPython's 30-bit floats keep about 22 significant bits. Tolerance:
