@@ -1,60 +1,246 @@
-"""Decimated samples out of the DRDY ring (main loop side).
+"""The DRDY path: boxcar sums in the interrupt handler, a ring, and its reader.
 
-    dec = Decimator(adc, decim=20, window=5)   # sets the ISR's boxcar (ads1292.set_decimation)
-    n = dec.poll(on_sample, limit)             # on_sample(sx, sy, sz, st) per sample
+    acq = Acquisition(board, decim=20, window=5)   # ring of 128 decimated samples
+    board.attach_drdy(acq.isr, rate, acq.account_gap)
+    n = acq.poll(on_sample, limit, on_gap)         # main loop: on_sample(sx, sy, sz, st)
 
-Each sample is the integer SUM of the last `window` frames of a block of
-`decim` frames, computed in the DRDY handler (ads1292.py): exact (no division,
-no float), in units of codes*window.
+Chip 0's frame carries X (CH1) and Y (CH2), chip 1's Z (CH1) and its die
+temperature (CH2, MUX=0100). [DS] = ADS1292 datasheet SBAS502C.
+
+`isr` must not allocate: it runs as a hard interrupt on rp2/stm32. It does the
+boxcar decimation itself, so the main loop wakes once per decimated sample,
+not once per conversion (on a 133 MHz M0+ a main-loop pass costs ~1 ms):
+frames before the window of each block of `decim` frames are not read at all
+(in RDATAC an unread result is replaced by the next one and DRDY pulses again,
+[E2E-915796] in the fact sheet), the `window` frames at the end of the block
+are read into preallocated buffers, the status nibble checked, sign-extended
+with shifts and summed (|sum| <= window * 2**23 <= 2**29 for window <= 64,
+inside the small-int range). A finished block goes into an array('i') ring as
+five ints (x, y, z, temperature sums, block number). A full ring drops the
+block and counts it; a block with a bad status header is discarded and counted.
+
 Why a short window: a vector averaged over a rotation arc of angle a shrinks by
 sin(a/2)/(a/2) ~ 1 - a**2/24; at 1 rev/s a 2.5 ms window biases |B| by
-48000 nT * (2*pi*0.0025)**2/24 = 0.49 nT, a 0.1 s window by 1.6 % (docs/simulator.md).
-Why decimate by more than the window: the calibration path costs ~30x the
-acquisition path per sample, and the fit needs a few thousand samples, not
-hundreds of thousands (docs/firmware.md, the sweep).
+48000 nT * (2*pi*0.0025)**2/24 = 0.49 nT, a 0.1 s window by 1.6 %
+(docs/simulator.md). Why decimate by more than the window: the calibration
+path costs ~30x the acquisition path per sample, and the fit needs a few
+thousand samples, not hundreds of thousands (docs/firmware.md, the sweep).
 
-Continuity: every ring slot carries the handler's block number; a jump means
-blocks were lost (ring overflow, or blocks discarded for a bad frame or a
-polled-DRDY gap). It is
-counted in `gaps` and reported to `on_gap` so the calibration does not
-compare two samples that are not neighbours in time.
+Continuity: every ring slot carries its block number; the reader counts a
+jump (ring overflow, or blocks discarded for a bad frame or a polled-DRDY gap)
+in `gaps` and reports it to `on_gap`, so the calibration never compares two
+samples that are not neighbours in time.
+
+Polled DRDY (CircuitPython): conversions that come and go while the main loop
+is busy never reach `isr`. The HAL measures the time since the last serviced
+DRDY and calls `account_gap(frames)` from the main loop before the handler, so
+the frame counter and the boxcar phase stay in step with the chip and a boxcar
+never sums frames from both sides of a gap. Every completed block number is
+accounted for: pushed to the ring, dropped (OVERFLOW) or thrown away
+(DISCARDED: a bad header, or a DRDY gap).
 """
 
-from ads1292 import DISCARDED
+from array import array
 
-_MASK30 = 0x3FFFFFFF
+try:
+    from micropython import const
+except ImportError:  # CPython: const is the identity
+    def const(x):
+        return x
+
+FRAME_BYTES = 9              # 24 status bits + 2 x 24-bit channels [DS §8.5.1.5]
+_STATUS_MASK = const(0xF0)
+_STATUS_SYNC = const(0xC0)   # frame header nibble 1100 [DS §8.5.1.5]
+
+# Ring slots: x, y, z, temperature boxcar sums, block number
+SLOTS = const(5)
+# State array indices (an array, so the ISR writes without allocating)
+_HEAD = const(0)
+_TAIL = const(1)
+OVERFLOW = const(2)   # decimated samples dropped because the ring was full
+FRAMES = const(3)     # DRDY edges seen (wraps at 2**30)
+BADSYNC = const(4)    # frames whose status header was not 1100 (their block is discarded)
+_PHASE = const(5)     # position of the next frame in its block, 0..decim-1
+_SPOIL = const(6)     # 1 when the open block holds a bad frame
+DISCARDED = const(7)  # blocks discarded: a bad frame, or a DRDY gap (account_gap)
+BLOCKS = const(8)     # blocks completed (wraps at 2**30): the ring's sequence numbers
+MISSED = const(9)     # conversions that passed unseen (polled DRDY): account_gap
+_NSTATE = const(10)
+MAX_WINDOW = const(64)   # window * 2**23 must stay below 2**30 (small int in the ISR)
+_MASK30 = const(0x3FFFFFFF)
 
 
-class Decimator:
-    def __init__(self, adc, decim=8, window=4):
-        adc.set_decimation(decim, window)   # ValueError names a bad pair
-        self.adc = adc
+class Acquisition:
+    """DRDY handler, ring of decimated samples, and the main loop's reader of it."""
+
+    def __init__(self, board, decim=1, window=1, ring_frames=128):
+        self.board = board
+        self._f0 = bytearray(FRAME_BYTES)
+        self._f1 = bytearray(FRAME_BYTES)
+        # ring_frames decimated samples: 128 hold 1.27 s at 100 samples/s, five
+        # times an RP2040's ~0.24 s solve (docs/firmware.md)
+        self.ring_frames = ring_frames
+        self.ring = array("i", bytes(4 * SLOTS * ring_frames))
+        self.state = array("i", bytes(4 * _NSTATE))
+        self.acc = array("i", bytes(4 * 4))   # open block: x, y, z, temperature sums
+        self.samples = 0      # decimated samples delivered by poll
+        self.gaps = 0         # discontinuities seen in the block numbers
+        self._last = -1
+        self.set_decimation(decim, window)
+        # Bind once: creating a bound method inside an ISR allocates.
+        self.isr = self._isr
+
+    def set_decimation(self, decim, window):
+        """Boxcar of the last `window` frames of every `decim` (1 <= window <= decim, window <= 64)."""
+        if not (1 <= window <= decim and window <= MAX_WINDOW):
+            raise ValueError("window %r must be within 1..decim (%r) and <= %d" % (window, decim, MAX_WINDOW))
         self.decim = decim
         self.window = window
-        self.samples = 0      # decimated samples delivered
-        self.gaps = 0         # discontinuities seen in the block numbers
+        self._first = decim - window
+        self.reset()
+
+    def reset(self):
+        """Empty ring, zero counters: conversions (re)start (ADS1292Pair.start)."""
+        st = self.state
+        for i in range(_NSTATE):
+            st[i] = 0
+        a = self.acc
+        for i in range(4):
+            a[i] = 0
+        self.samples = 0
+        self.gaps = 0
         self._last = -1
 
     @property
     def discarded(self):
         """Blocks thrown away for a bad status header or a DRDY gap (polled DRDY)."""
-        return self.adc.state[DISCARDED]
+        return self.state[DISCARDED]
+
+    # ****** main loop, polled DRDY only ******
+    def account_gap(self, frames):
+        """`frames` conversions passed unseen (the main loop was busy; polled DRDY).
+
+        Called by a polling HAL from the main loop, before the handler services
+        the next conversion; never while `isr` can run (with a hard IRQ nothing
+        is missed: the ring absorbs a stall). Advances FRAMES and the boxcar
+        phase as `isr` would have, counts `frames` in MISSED, and throws away
+        (DISCARDED) every block whose window lost a frame: the open block if the
+        gap reaches its window, and every block that ended inside the gap. The
+        block numbers still advance, so the reader sees the gap. Integers stay
+        below 2**30: `frames` is clipped to 2**29 (4.6 min at 2000 SPS).
+        """
+        if frames < 1:
+            return
+        if frames > 0x20000000:
+            frames = 0x20000000
+        st = self.state
+        st[MISSED] = (st[MISSED] + frames) & _MASK30
+        st[FRAMES] = (st[FRAMES] + frames) & _MASK30
+        end = st[_PHASE] + frames   # position after the gap, from the open block's start
+        ends = end // self.decim    # blocks whose last frame (always in the window) was lost
+        q = end - ends * self.decim
+        if ends:
+            st[BLOCKS] = (st[BLOCKS] + ends) & _MASK30
+            st[DISCARDED] = (st[DISCARDED] + ends) & _MASK30
+            a = self.acc
+            a[0] = 0
+            a[1] = 0
+            a[2] = 0
+            a[3] = 0
+            # the new open block lost its first q frames: harmless before its window
+            st[_SPOIL] = 1 if q > self._first else 0
+        elif end > self._first:
+            st[_SPOIL] = 1          # the gap reaches into the open block's window
+        st[_PHASE] = q
+
+    # ****** interrupt path: no allocation below ******
+    def _isr(self, _pin=None):
+        st = self.state
+        st[FRAMES] = (st[FRAMES] + 1) & _MASK30
+        p = st[_PHASE]
+        q = p + 1
+        if q == self.decim:
+            q = 0
+        st[_PHASE] = q
+        if p < self._first:
+            return        # outside the boxcar: not read, the next conversion replaces it
+        b = self.board
+        f0 = self._f0
+        f1 = self._f1
+        b.spi_readinto(0, f0)
+        b.spi_readinto(1, f1)
+        a = self.acc
+        if (f0[0] & _STATUS_MASK) != _STATUS_SYNC or (f1[0] & _STATUS_MASK) != _STATUS_SYNC:
+            st[BADSYNC] = (st[BADSYNC] + 1) & _MASK30
+            st[_SPOIL] = 1
+        else:
+            # 24-bit two's complement, MSB first: v - 2**24 when bit 23 is set,
+            # with shifts only (written out four times: a call per channel costs
+            # more than the arithmetic in a hard IRQ)
+            v = (f0[3] << 16) | (f0[4] << 8) | f0[5]
+            a[0] += v - ((v & 0x800000) << 1)
+            v = (f0[6] << 16) | (f0[7] << 8) | f0[8]
+            a[1] += v - ((v & 0x800000) << 1)
+            v = (f1[3] << 16) | (f1[4] << 8) | f1[5]
+            a[2] += v - ((v & 0x800000) << 1)
+            v = (f1[6] << 16) | (f1[7] << 8) | f1[8]
+            a[3] += v - ((v & 0x800000) << 1)
+        if q:
+            return        # block still open
+        blk = st[BLOCKS]
+        st[BLOCKS] = (blk + 1) & _MASK30
+        if st[_SPOIL]:
+            st[_SPOIL] = 0
+            st[DISCARDED] = (st[DISCARDED] + 1) & _MASK30
+        else:
+            head = st[_HEAD]
+            nxt = head + 1
+            if nxt == self.ring_frames:
+                nxt = 0
+            if nxt == st[_TAIL]:
+                st[OVERFLOW] = (st[OVERFLOW] + 1) & _MASK30
+            else:
+                r = self.ring
+                i = head * SLOTS
+                r[i] = a[0]
+                r[i + 1] = a[1]
+                r[i + 2] = a[2]
+                r[i + 3] = a[3]
+                r[i + 4] = blk
+                st[_HEAD] = nxt
+        a[0] = 0
+        a[1] = 0
+        a[2] = 0
+        a[3] = 0
+
+    # ****** main-loop side of the ring ******
+    def available(self):
+        """Decimated samples waiting in the ring."""
+        st = self.state
+        n = st[_HEAD] - st[_TAIL]
+        return n + self.ring_frames if n < 0 else n
 
     def poll(self, on_sample, limit=16, on_gap=None):
-        """Deliver up to `limit` samples from the ring; return the number delivered."""
-        adc = self.adc
-        ring = adc.ring
+        """Deliver up to `limit` samples from the ring in order; return how many.
+
+        on_sample(sx, sy, sz, st) gets the integer boxcar sums (units: codes x
+        window); on_gap() comes first when block numbers jumped.
+        """
+        st = self.state
+        ring = self.ring
         n = 0
         while n < limit:
-            j = adc.pop_index()
-            if j < 0:
+            t = st[_TAIL]
+            if t == st[_HEAD]:
                 break
+            j = t * SLOTS
             sx = ring[j]
             sy = ring[j + 1]
             sz = ring[j + 2]
-            st = ring[j + 3]
+            stc = ring[j + 3]
             blk = ring[j + 4]
-            adc.release()
+            t += 1
+            st[_TAIL] = 0 if t == self.ring_frames else t   # slot free: the ISR may reuse it
             if self._last >= 0 and blk != ((self._last + 1) & _MASK30):
                 self.gaps += 1
                 if on_gap is not None:
@@ -62,5 +248,5 @@ class Decimator:
             self._last = blk
             n += 1
             self.samples += 1
-            on_sample(sx, sy, sz, st)
+            on_sample(sx, sy, sz, stc)
         return n

@@ -1,37 +1,17 @@
 """TI ADS1292 driver: two chips on one SPI bus, one shared START line.
 
-    adc = ADS1292Pair(board, rate=2000, gains=(1, 1, 1))
-    adc.begin()                 # reset, probe IDs, configure, verify, RDATAC
-    board.attach_drdy(adc.isr)  # DRDY of chip 0 -> adc.isr (hard IRQ, or polled)
-    adc.set_decimation(decim=20, window=5)   # boxcar of 5 frames out of every 20
-    ... main loop: adc.ring holds boxcar sums (x, y, z, t, block number)
+    acq = Acquisition(board, decim=20, window=5)
+    adc = ADS1292Pair(board, acq, rate=2000, gains=(1, 1, 1))
+    adc.begin()                 # reset, probe IDs, configure, verify, RDATAC, START
+    board.attach_drdy(acq.isr, adc.rate, acq.account_gap)
 
 Chip 0 digitises X (CH1) and Y (CH2); chip 1 digitises Z (CH1) and its
 internal temperature sensor (CH2, MUX=0100). Section numbers refer to the
-datasheet (SBAS502C); see shared/reference/ads1292-and-runtimes.md.
-
-`isr` must not allocate: it runs as a hard interrupt on rp2/stm32. It does the
-boxcar decimation itself, so the main loop wakes once per decimated sample,
-not once per conversion (on a 133 MHz M0+ a main-loop pass costs ~1 ms):
-frames before the window of each block of `decim` frames are not read at all
-(in RDATAC an unread result is replaced by the next one and DRDY pulses again,
-[E2E-915796] in the fact sheet), the `window` frames at the end of the block
-are read into preallocated buffers, the status nibble checked, sign-extended
-with shifts and summed (|sum| <= window * 2**23 <= 2**29 for window <= 64,
-inside the small-int range). A finished block goes into an array('i') ring as
-five ints (x, y, z, temperature sums, block number). A full ring drops the
-block and counts it; a block with a bad status header is discarded and counted.
-
-Polled DRDY (CircuitPython): conversions that come and go while the main loop
-is busy never reach `isr`. The HAL measures the time since the last serviced
-DRDY and calls `account_gap(frames)` from the main loop before the handler, so
-the frame counter and the boxcar phase stay in step with the chip and a boxcar
-never sums frames from both sides of a gap. Every completed block number is
-accounted for: pushed to the ring, dropped (`OVERFLOW`) or thrown away
-(`DISCARDED`: a bad header, or a DRDY gap).
+datasheet (SBAS502C); see shared/reference/ads1292-and-runtimes.md. This
+module talks to the chips' registers; the frames they stream in RDATAC are
+acquisition.py's (the DRDY handler, its ring and the ring's reader), which
+start() resets whenever conversions (re)start.
 """
-
-from array import array
 
 try:
     from micropython import const
@@ -67,34 +47,14 @@ _PDB_REFBUF = const(0x20)    # internal reference buffer on
 _VREF_4V = const(0x10)       # 4.033 V reference (needs AVDD 5 V)
 _MUX_NORMAL = const(0x00)
 _MUX_TEMP = const(0x04)      # internal temperature sensor, §8.3.2.4
-_STATUS_MASK = const(0xF0)
-_STATUS_SYNC = const(0xC0)   # frame header nibble 1100, §8.5.1.5
 
 EXPECTED_IDS = (0x53, 0x73)  # ADS1292, ADS1292R (derived from §8.6.1.1)
-FRAME_BYTES = 9              # 24 status bits + 2 x 24-bit channels
 
 # Data rate in SPS -> CONFIG1.DR (fMOD = 128 kHz, §8.6.1.2); 8000 is noisy (§7.1)
 RATES = (125, 250, 500, 1000, 2000, 4000, 8000)
 # PGA gain -> CHnSET.GAIN code (§8.6.1.5)
 _GAIN_CODES = {6: 0, 1: 1, 2: 2, 3: 3, 4: 4, 8: 5, 12: 6}
 GAINS = (1, 2, 3, 4, 6, 8, 12)
-
-# Ring slots: x, y, z, temperature boxcar sums, block number (continuity check)
-SLOTS = const(5)
-# State array indices (kept in an array so the ISR writes without allocating)
-_HEAD = const(0)
-_TAIL = const(1)
-OVERFLOW = const(2)   # decimated samples dropped because the ring was full
-FRAMES = const(3)     # DRDY edges seen (wraps at 2**30)
-BADSYNC = const(4)    # frames whose status header was not 1100 (their block is discarded)
-_PHASE = const(5)     # position of the next frame in its block, 0..decim-1
-_SPOIL = const(6)     # 1 when the open block holds a bad frame
-DISCARDED = const(7)  # blocks discarded: a bad frame, or a DRDY gap (account_gap)
-BLOCKS = const(8)     # blocks completed (wraps at 2**30): the ring's sequence numbers
-MISSED = const(9)     # conversions that passed unseen (polled DRDY): account_gap
-_NSTATE = const(10)
-MAX_WINDOW = const(64)   # window * 2**23 must stay below 2**30 (small int in the ISR)
-_MASK30 = const(0x3FFFFFFF)
 
 # Worst case waits, §2 of the fact sheet: tPOR 32 ms; RESET needs 18 tCLK
 # (§8.5.1.8) or 9 fMOD cycles (§8.5.2.3): wait the longer, rounded up.
@@ -118,17 +78,13 @@ def gain_code(gain):
     return _GAIN_CODES[gain]
 
 
-def to_signed24(b0, b1, b2):
-    """24-bit two's complement (MSB first) to int, with shifts only."""
-    v = (b0 << 16) | (b1 << 8) | b2
-    return v - ((v & 0x800000) << 1)
-
-
 class ADS1292Pair:
-    """Two ADS1292 on one bus. `board` is the HAL (see hal_sim.py for the contract)."""
+    """Two ADS1292 on one bus. `board` is the HAL (hal.py), `acq` the
+    acquisition.Acquisition that receives their frames."""
 
-    def __init__(self, board, rate=2000, gains=(1, 1, 1), vref_4v=False, ring_frames=128, decim=1, window=1):
+    def __init__(self, board, acq, rate=2000, gains=(1, 1, 1), vref_4v=False):
         self.board = board
+        self.acq = acq
         self.rate = rate
         self._dr = rate_code(rate)
         self.gains = tuple(gains)
@@ -138,21 +94,10 @@ class ADS1292Pair:
         self.vref = 4.033 if vref_4v else 2.42
         self._vref_bit = _VREF_4V if vref_4v else 0
         self.ids = [0, 0]
-        # Preallocated: two frame buffers, a command buffer, the ring, counters.
-        self._f0 = bytearray(FRAME_BYTES)
-        self._f1 = bytearray(FRAME_BYTES)
+        # Preallocated command buffers
         self._cmd = bytearray(16)
         self._rd = bytearray(16)
-        # ring_frames decimated samples; 128 hold 2.56 s at 50 samples/s, ten
-        # times an RP2040's ~0.2 s provisional solve (docs/firmware.md)
-        self.ring_frames = ring_frames
-        self.ring = array("i", bytes(4 * SLOTS * ring_frames))
-        self.state = array("i", bytes(4 * _NSTATE))
-        self.acc = array("i", bytes(4 * 4))   # open block: x, y, z, temperature sums
-        self.set_decimation(decim, window)
         self.streaming = False
-        # Bind once: creating a bound method inside an ISR allocates.
-        self.isr = self._isr
 
     # ****** bus layer ******
     def _command(self, chip, op):
@@ -234,7 +179,7 @@ class ADS1292Pair:
         for chip in (0, 1):
             self._command(chip, _RDATAC)
         b.set_spi_rate(b.DATA_BAUD)
-        self.reset_ring()
+        self.acq.reset()
         self.streaming = True
         b.set_start(1)
 
@@ -259,23 +204,6 @@ class ADS1292Pair:
         self.configure()
         self.start()
 
-    def set_decimation(self, decim, window):
-        """Boxcar of the last `window` frames of every `decim` (1 <= window <= decim, window <= 64)."""
-        if not (1 <= window <= decim and window <= MAX_WINDOW):
-            raise ValueError("window %r must be within 1..decim (%r) and <= %d" % (window, decim, MAX_WINDOW))
-        self.decim = decim
-        self.window = window
-        self._first = decim - window
-        self.reset_ring()
-
-    def reset_ring(self):
-        st = self.state
-        for i in range(_NSTATE):
-            st[i] = 0
-        a = self.acc
-        for i in range(4):
-            a[i] = 0
-
     def lsb_volts(self, gain):
         """Input-referred volts per code: VREF / (2**23 - 1) / gain (§8.3.8)."""
         return self.vref / 8388607 / gain
@@ -284,117 +212,3 @@ class ADS1292Pair:
         """Internal sensor: T = (V_uV - 145300) / 490 + 25 (§8.3.2.4 Eq. 3), gain 1."""
         uv = code * self.lsb_volts(1) * 1e6
         return (uv - 145300.0) / 490.0 + 25.0
-
-    # ****** main loop, polled DRDY only ******
-    def account_gap(self, frames):
-        """`frames` conversions passed unseen (the main loop was busy; polled DRDY).
-
-        Called by a polling HAL from the main loop, before the handler services
-        the next conversion; never while `isr` can run (with a hard IRQ nothing
-        is missed: the ring absorbs a stall). Advances FRAMES and the boxcar
-        phase as `isr` would have, counts `frames` in MISSED, and throws away
-        (DISCARDED) every block whose window lost a frame: the open block if the
-        gap reaches its window, and every block that ended inside the gap. The
-        block numbers still advance, so the main loop sees the gap. Integers stay
-        below 2**30: `frames` is clipped to 2**29 (4.6 min at 2000 SPS).
-        """
-        if frames < 1:
-            return
-        if frames > 0x20000000:
-            frames = 0x20000000
-        st = self.state
-        st[MISSED] = (st[MISSED] + frames) & _MASK30
-        st[FRAMES] = (st[FRAMES] + frames) & _MASK30
-        end = st[_PHASE] + frames   # position after the gap, from the open block's start
-        ends = end // self.decim    # blocks whose last frame (always in the window) was lost
-        q = end - ends * self.decim
-        if ends:
-            st[BLOCKS] = (st[BLOCKS] + ends) & _MASK30
-            st[DISCARDED] = (st[DISCARDED] + ends) & _MASK30
-            a = self.acc
-            a[0] = 0
-            a[1] = 0
-            a[2] = 0
-            a[3] = 0
-            # the new open block lost its first q frames: harmless before its window
-            st[_SPOIL] = 1 if q > self._first else 0
-        elif end > self._first:
-            st[_SPOIL] = 1          # the gap reaches into the open block's window
-        st[_PHASE] = q
-
-    # ****** interrupt path: no allocation below ******
-    def _isr(self, _pin=None):
-        st = self.state
-        st[FRAMES] = (st[FRAMES] + 1) & _MASK30
-        p = st[_PHASE]
-        q = p + 1
-        if q == self.decim:
-            q = 0
-        st[_PHASE] = q
-        if p < self._first:
-            return        # outside the boxcar: not read, the next conversion replaces it
-        b = self.board
-        f0 = self._f0
-        f1 = self._f1
-        b.spi_readinto(0, f0)
-        b.spi_readinto(1, f1)
-        a = self.acc
-        if (f0[0] & _STATUS_MASK) != _STATUS_SYNC or (f1[0] & _STATUS_MASK) != _STATUS_SYNC:
-            st[BADSYNC] += 1
-            st[_SPOIL] = 1
-        else:
-            v = (f0[3] << 16) | (f0[4] << 8) | f0[5]
-            a[0] += v - ((v & 0x800000) << 1)
-            v = (f0[6] << 16) | (f0[7] << 8) | f0[8]
-            a[1] += v - ((v & 0x800000) << 1)
-            v = (f1[3] << 16) | (f1[4] << 8) | f1[5]
-            a[2] += v - ((v & 0x800000) << 1)
-            v = (f1[6] << 16) | (f1[7] << 8) | f1[8]
-            a[3] += v - ((v & 0x800000) << 1)
-        if q:
-            return        # block still open
-        blk = st[BLOCKS]
-        st[BLOCKS] = (blk + 1) & _MASK30
-        if st[_SPOIL]:
-            st[_SPOIL] = 0
-            st[DISCARDED] += 1
-        else:
-            head = st[_HEAD]
-            nxt = head + 1
-            if nxt == self.ring_frames:
-                nxt = 0
-            if nxt == st[_TAIL]:
-                st[OVERFLOW] += 1
-            else:
-                r = self.ring
-                i = head * SLOTS
-                r[i] = a[0]
-                r[i + 1] = a[1]
-                r[i + 2] = a[2]
-                r[i + 3] = a[3]
-                r[i + 4] = blk
-                st[_HEAD] = nxt
-        a[0] = 0
-        a[1] = 0
-        a[2] = 0
-        a[3] = 0
-
-    # ****** main-loop side of the ring ******
-    def available(self):
-        """Decimated samples waiting in the ring."""
-        st = self.state
-        n = st[_HEAD] - st[_TAIL]
-        return n + self.ring_frames if n < 0 else n
-
-    def pop_index(self):
-        """Slot index of the oldest sample, or -1; call release() when done with it."""
-        st = self.state
-        t = st[_TAIL]
-        if t == st[_HEAD]:
-            return -1
-        return t * SLOTS
-
-    def release(self):
-        st = self.state
-        t = st[_TAIL] + 1
-        st[_TAIL] = 0 if t == self.ring_frames else t

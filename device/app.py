@@ -1,4 +1,4 @@
-"""The application: ADC -> decimator -> (calibration session | survey), button, LED, serial.
+"""The application: ADC -> ring -> (calibration session | survey), button, LED, serial.
 
     App(board).run()      # main.py / code.py / the simulators all end here
 
@@ -8,20 +8,21 @@ button and the serial line, drive the LED, then idle until the next
 decimated sample (or _HOUSE_MS). The DRDY handler does the boxcar itself, so
 a pass runs per decimated sample, not per conversion: on an RP2040 a pass
 costs ~1 ms and conversions come every 0.5 ms at 2000 SPS (docs/firmware.md).
-Every state a user can see is also in `status`.
+The serial commands are commands.py; every state a user can see is also in
+their `status`.
 """
 
 import gc
-import json
 
+import commands
 import config as cfgmod
 import store
-from acquisition import Decimator
-from ads1292 import ADS1292Pair, OVERFLOW, BADSYNC, FRAMES, MISSED
+from acquisition import Acquisition
+from ads1292 import ADS1292Pair
 from button import Button, SHORT, LONG
 from led import Led
 import led as ledp
-from protocol import Protocol, ProtocolError, parse_value
+from protocol import VERSION, Protocol, ProtocolError, json_number
 from survey import Survey, RotatingLog
 from shared.calibration import Calibration
 import calibrate
@@ -35,24 +36,18 @@ _SAMPLE_CAL = "sample_cal"
 _SAMPLE = "sample"
 
 
-def _r(x, nd=3):
-    """Round for JSON; None for non-finite (JSON has no NaN)."""
-    if x is None or x != x or x in (float("inf"), float("-inf")):
-        return None
-    return round(x, nd)
-
-
 class App:
+    firmware = FIRMWARE_VERSION
+
     def __init__(self, board):
         self.board = board
-        self.proto = Protocol(self, board)
+        self.proto = Protocol(board, commands.TABLE, self)
         self.button = Button(board)
         self.led = Led(board)
         self.session = None
         self.last_coverage = None
         self.last_result = None
         self.fault = None
-        self.stream = "off"
         self.temp_c = None
         self.cal_temp_warn = False
         self.log = None
@@ -64,16 +59,16 @@ class App:
         self._want_f = False
         self.cal_w = None
         body, _src, problem = store.load(board.root, "config")
-        self.cfg, problems = cfgmod.from_dict(body if body is not None else {})
-        self.config_problems = problems
-        if body is None and _src is None and problem and not problem.startswith("no "):
+        self.cfg, self.config_problems = cfgmod.from_dict(body if body is not None else {})
+        if problem:
             self.config_problems.append(problem)
         self.stream = self.cfg["stream"]
         self._load_cal()
+        self.acq = Acquisition(board, self.cfg["decim"], self.cfg["window"])
         self.adc = None
         self._start_adc()
         self._setup_pipeline()
-        self.proto.event("boot", {"fw": FIRMWARE_VERSION, "proto": 1, "calibrated": self.cal is not None,
+        self.proto.event("boot", {"fw": FIRMWARE_VERSION, "proto": VERSION, "calibrated": self.cal is not None,
                                   "cal_source": self.cal_source, "fault": self.fault})
 
     # ****** setup ******
@@ -82,18 +77,19 @@ class App:
         self.cal = Calibration.from_dict(body) if body is not None else None
         self.cal_w = None
         self.cal_source = src
-        self.cal_problem = problem if (problem and not problem.startswith("no ")) else None
+        self.cal_problem = problem
 
     def _start_adc(self):
         c = self.cfg
+        gains = (c["gain_x"], c["gain_y"], c["gain_z"])
         try:
             if self.adc is None:
-                self.adc = ADS1292Pair(self.board, c["rate"], (c["gain_x"], c["gain_y"], c["gain_z"]), c["vref_4v"])
+                self.adc = ADS1292Pair(self.board, self.acq, c["rate"], gains, c["vref_4v"])
                 self.adc.begin()
             else:
-                self.adc.reconfigure(c["rate"], (c["gain_x"], c["gain_y"], c["gain_z"]))
+                self.adc.reconfigure(c["rate"], gains)
             # again after a reconfigure: a polling HAL restarts its gap clock at the new rate
-            self.board.attach_drdy(self.adc.isr, self.adc.rate, self.adc.account_gap)
+            self.board.attach_drdy(self.acq.isr, self.adc.rate, self.acq.account_gap)
             self.fault = None
         except OSError as e:
             self.fault = str(e)
@@ -101,8 +97,7 @@ class App:
 
     def _setup_pipeline(self):
         c = self.cfg
-        if self.adc is not None:
-            self.dec = Decimator(self.adc, c["decim"], c["window"])
+        self.acq.set_decimation(c["decim"], c["window"])
         self.sample_hz = c["rate"] / c["decim"]
         self._house_idles = max(1, c["rate"] * _HOUSE_MS // 1000)
         self.survey = Survey(c, c["window"], self.sample_hz)
@@ -139,8 +134,7 @@ class App:
         call per wake-up, not three.
         """
         b = self.board
-        adc = self.adc if not self.fault else None
-        if adc is None:   # no conversions to count: by the clock
+        if self.fault:   # no conversions to count: by the clock
             t0 = b.ticks_ms()
             while not b.quit_requested() and not (stop is not None and stop()):
                 b.idle()
@@ -148,7 +142,7 @@ class App:
                     return
             return
         n = self._house_idles
-        avail = adc.available
+        avail = self.acq.available
         while n > 0:
             if avail():
                 return
@@ -161,39 +155,39 @@ class App:
 
     def step(self):
         b = self.board
-        if self.adc is not None and not self.fault:
-            n = self.dec.poll(self._sample_cb, _DRAIN, self._gap_cb)
+        if not self.fault:
+            n = self.acq.poll(self._sample_cb, _DRAIN, self._gap_cb)
             if n:
                 b.busy(_SAMPLE_CAL if self.session is not None else _SAMPLE, n)
         ev = self.button.poll()
         if ev == SHORT:
             if self.session is None:
                 try:
-                    self._start_session()
+                    self.start_session()
                 except ProtocolError as e:
                     self.proto.event("cal", {"state": "failed", "reason": e.code, "msg": str(e)})
                     self.led.flash(ledp.FAILED)
             else:
-                self._finish_session()
+                self.finish_session()
         elif ev == LONG and self.session is not None:
-            self._cancel_session()
+            self.cancel_session()
         self.proto.poll()
         s = self.session
         if s is not None:
-            now = self.board.ticks_ms()
-            solved = s.tick(now, self.board.ticks_diff)
+            now = b.ticks_ms()
+            solved = s.tick(now, b.ticks_diff)
             if solved:
                 b.busy(_SOLVE)
-            if self.board.ticks_diff(now, self.last_progress) >= 1000:
+            if b.ticks_diff(now, self.last_progress) >= 1000:
                 self.last_progress = now
                 self.proto.event("cal", s.progress())
             # coverage is a pass over all cells: check it only after a provisional solve
             if solved and s.ready():
                 self.led.set(ledp.ENOUGH)
                 if self.cfg["auto_finish"]:
-                    self._finish_session()
-            elif s.timed_out(now, self.board.ticks_diff):
-                self._finish_session()
+                    self.finish_session()
+            elif s.timed_out(now, b.ticks_diff):
+                self.finish_session()
         self.led.update()
 
     def _on_gap(self):
@@ -239,17 +233,20 @@ class App:
         else:
             k = self.scale
             bx, by, bz = x * k[0], y * k[1], z * k[2]
+        r = json_number
         if self.stream == "corrected":
             msg = "temperature %.1f C differs from calibration %.1f C" % (temp, tcal) if warn else None
-            self.proto.event("data", {"t": t, "b": [_r(bx), _r(by), _r(bz)], "f": _r(f), "temp": _r(temp, 2),
-                                      "c": [_r(x, 2), _r(y, 2), _r(z, 2)], "cal": cal is not None, "warn": msg})
+            self.proto.event("data", {"t": t, "b": [r(bx), r(by), r(bz)], "f": r(f), "temp": r(temp, 2),
+                                      "c": [r(x, 2), r(y, 2), r(z, 2)], "cal": cal is not None, "warn": msg})
         elif self.stream == "raw":
-            self.proto.event("raw", {"t": t, "c": [_r(x, 2), _r(y, 2), _r(z, 2)], "temp": _r(temp, 2)})
+            self.proto.event("raw", {"t": t, "c": [r(x, 2), r(y, 2), r(z, 2)], "temp": r(temp, 2)})
         if self.log is not None and self.session is None:
             self.log.write("%d,%.3f,%.3f,%.3f,%.3f,%.2f\n" % (t, bx, by, bz, f, temp))
 
-    # ****** calibration flow ******
-    def _start_session(self):
+    # ****** calibration flow (the button and commands.py both drive it) ******
+    def start_session(self):
+        if self.session is not None:
+            raise ProtocolError("busy", "calibration already in progress")
         if self.fault:
             raise ProtocolError("fault", "ADC fault: " + self.fault)
         c = self.cfg
@@ -259,14 +256,12 @@ class App:
         self.led.set(ledp.COLLECTING)
         self.proto.event("cal", self.session.progress())
 
-    def _finish_session(self):
-        s = self.session
-        self.session = None
-        self.last_coverage = s.cov
+    def finish_session(self):
+        s = self._end_session()
         gc.collect()
         cal, reason, msg = s.finish()
         self.board.busy(_SOLVE)
-        result = {"state": s.state, "n": s.fit.n, "coverage": _r(s.coverage())}
+        result = {"state": s.state, "n": s.fit.n, "coverage": json_number(s.coverage())}
         if cal is None:
             result["reason"] = reason
             result["msg"] = msg
@@ -279,181 +274,75 @@ class App:
                 cal.meta["time"] = t
             cal.meta["rate"] = self.cfg["rate"]
             cal.meta["scale"] = list(self.scale)
-            saved, err = self._install(cal)
+            saved, err = self.install(cal)
             result["saved"] = saved
             if err:
                 result["save_error"] = err
             d = cal.diagnostics
             for k in ("rms", "predicted_error", "observability"):
-                result[k] = _r(d.get(k), 4)
-            result["field"] = _r(cal.field, 2)
+                result[k] = json_number(d.get(k), 4)
+            result["field"] = json_number(cal.field, 2)
             self.led.flash(ledp.DONE)
         self.last_result = result
         self.proto.event("cal", result)
-        self.led.set(ledp.SURVEY if self.cal is not None else ledp.UNCALIBRATED)
+        self._steady_led()
         return result
 
-    def _cancel_session(self):
-        s = self.session
-        self.session = None
+    def cancel_session(self):
+        s = self._end_session()
         s.cancel()
         self.last_result = {"state": s.state, "reason": s.reason, "msg": s.message}
         self.proto.event("cal", self.last_result)
         self.led.flash(ledp.FAILED)
+        self._steady_led()
+
+    def _end_session(self):
+        s = self.session
+        if s is None:
+            raise ProtocolError("not_calibrating", "no calibration in progress")
+        self.session = None
+        self.last_coverage = s.cov
+        return s
+
+    def _steady_led(self):
         self.led.set(ledp.SURVEY if self.cal is not None else ledp.UNCALIBRATED)
 
-    def _install(self, cal):
+    def install(self, cal):
         """Make cal the active calibration and store it; (saved, error)."""
         self.cal = cal
         self._outputs()
         self.cal_source = "new"
         self.cal_problem = None
+        self._steady_led()
         try:
             store.save(self.board.root, "cal", cal.to_dict())
             return True, None
         except OSError as e:
             return False, str(e)
 
-    # ****** protocol commands: each returns a dict of reply fields ******
-    def cmd_version(self, args):
-        import sys
-        return {"fw": FIRMWARE_VERSION, "proto": 1, "runtime": self.board.name,
-                "impl": sys.implementation.name}
-
-    def cmd_status(self, args):
-        st = self.adc.state if self.adc is not None else None
-        out = {
-            "state": "fault" if self.fault else ("calibrating" if self.session else "survey"),
-            "fault": self.fault,
-            "calibrated": self.cal is not None,
-            "cal_source": self.cal_source,
-            "cal_problem": self.cal_problem,
-            "config_problems": self.config_problems,
-            "stream": self.stream,
-            "uptime_ms": self.board.ticks_diff(self.board.ticks_ms(), self.boot_ms),
-            "temp": _r(self.temp_c, 2),
-            "temp_warn": self.cal_temp_warn,
-            "last_cal": self.last_result,
-        }
-        if st is not None:
-            out["frames"] = st[FRAMES]
-            out["overflow"] = st[OVERFLOW]
-            out["missed"] = st[MISSED]
-            out["badsync"] = st[BADSYNC]
-            out["discarded"] = self.dec.discarded
-            out["gaps"] = self.dec.gaps
-            out["samples"] = self.dec.samples
-        if self.session is not None:
-            out["cal"] = self.session.progress()
-        if self.log is not None:
-            out["log"] = {"lines": self.log.lines, "error": self.log.error}
-        try:
-            out["mem_free"] = gc.mem_free()
-        except AttributeError:  # CPython
-            pass
-        return out
-
-    def cmd_get_cal(self, args):
-        return {"cal": self.cal.to_dict() if self.cal is not None else None}
-
-    def cmd_set_cal(self, args):
-        if self.session is not None:
-            raise ProtocolError("busy", "calibration in progress; cancel-cal first")
-        if not args.startswith("{"):
-            raise ProtocolError("bad_argument", "set-cal takes a calibration JSON object")
-        try:
-            d = json.loads(args)
-        except ValueError:
-            raise ProtocolError("bad_json", "set-cal argument is not valid JSON")
-        cal = Calibration.from_dict(d)  # ValueError names the problem
-        problem = calibrate.check_calibration(cal, self.cfg, self.scale)
-        if problem:
-            raise ProtocolError(problem[0], problem[1])
-        cal.meta["source"] = "set-cal"
-        saved, err = self._install(cal)
-        if not saved:
-            raise ProtocolError("io_error", "calibration active but not saved: %s" % err)
-        self.led.set(ledp.SURVEY)
-        return {"saved": True}
-
-    def cmd_clear_cal(self, args):
-        if self.session is not None:
-            raise ProtocolError("busy", "calibration in progress; cancel-cal first")
+    def clear_calibration(self):
         store.remove(self.board.root, "cal")
         self.cal = None
         self._outputs()
         self.cal_source = None
-        self.led.set(ledp.UNCALIBRATED)
-        return {}
+        self._steady_led()
 
-    def cmd_start_cal(self, args):
-        if self.session is not None:
-            raise ProtocolError("busy", "calibration already in progress")
-        self._start_session()
-        return {}
-
-    def cmd_finish_cal(self, args):
-        if self.session is None:
-            raise ProtocolError("not_calibrating", "no calibration in progress")
-        r = self._finish_session()
-        return {"result": r}
-
-    def cmd_cancel_cal(self, args):
-        if self.session is None:
-            raise ProtocolError("not_calibrating", "no calibration in progress")
-        self._cancel_session()
-        return {}
-
-    def cmd_get_coverage(self, args):
-        cov = self.session.cov if self.session is not None else self.last_coverage
-        if cov is None:
-            raise ProtocolError("no_coverage", "no calibration since boot")
-        return {"cells_per_edge": cov.edge, "counts": list(cov.counts), "fraction": _r(cov.fraction())}
-
-    def cmd_stream(self, args):
-        words = args.split()
-        if words[:1] == ["on"]:
-            words = words[1:] or ["corrected"]
-        if len(words) != 1 or words[0] not in ("off", "raw", "corrected"):
-            raise ProtocolError("bad_argument", "stream takes: on [raw|corrected] | raw | corrected | off")
-        self.stream = words[0]
+    # ****** settings (commands.py) ******
+    def set_stream(self, mode):
+        self.stream = mode
         self._outputs()
-        return {"stream": self.stream}
 
-    def cmd_config(self, args):
-        words = args.split(None, 2)
-        if not words or words[0] not in ("get", "set"):
-            raise ProtocolError("bad_argument", "config get [KEY] | config set KEY VALUE")
-        if words[0] == "get":
-            if len(words) == 1:
-                return {"config": self.cfg}
-            key = words[1]
-            if key not in self.cfg:
-                raise ProtocolError("unknown_key", "unknown config key %r" % key[:40])
-            return {"key": key, "value": self.cfg[key]}
-        if len(words) != 3:
-            raise ProtocolError("bad_argument", "config set KEY VALUE")
-        if self.session is not None:
-            raise ProtocolError("busy", "calibration in progress; cancel-cal first")
-        key = words[1]
-        if key not in self.cfg:
-            raise ProtocolError("unknown_key", "unknown config key %r" % key[:40])
-        new = dict(self.cfg)
-        try:
-            new[key] = cfgmod.check(key, parse_value(words[2]))
-            cfgmod.cross_check(new)
-        except ValueError as e:
-            raise ProtocolError("bad_value", str(e))
+    def apply_config(self, new):
+        """Make a validated configuration current: saved first, then applied."""
         store.save(self.board.root, "config", cfgmod.changed(new))
         old = self.cfg
         self.cfg = new
-        if key == "stream":
-            self.stream = new[key]
-        if new["rate"] != old["rate"] or (new["gain_x"], new["gain_y"], new["gain_z"]) != (old["gain_x"], old["gain_y"], old["gain_z"]):
+        if new["stream"] != old["stream"]:
+            self.stream = new["stream"]
+        if new["rate"] != old["rate"] or (new["gain_x"], new["gain_y"], new["gain_z"]) != \
+                (old["gain_x"], old["gain_y"], old["gain_z"]):
             self._start_adc()
         self._setup_pipeline()
-        return {"key": key, "value": new[key]}
-
 
 
 def start(hal):

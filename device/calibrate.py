@@ -1,6 +1,6 @@
 """The one-button in-field calibration: gate samples, fit, check, accept or refuse.
 
-    s = Session(cfg, scale, window, prior=None, now_ms=0)
+    s = Session(cfg, scale, window, period_ms, prior=None, now_ms=0)
     s.sample(sx, sy, sz)           # each decimated sample (integer boxcar sums)
     s.tick(now_ms)                 # provisional solve every solve_every_s
     s.ready()                      # coverage and predicted error reached
@@ -140,8 +140,7 @@ class Session:
         # 2. coverage cell cap
         cov = self.cov
         cell = cov.cell(x, y, z)
-        counts = cov.counts
-        n = counts[cell]
+        n = cov.count(cell)
         if n >= self._cap:
             self.rej_cap += 1
             return False
@@ -169,7 +168,7 @@ class Session:
                     self._hold -= 1
                 return False
         self.fit.add(sx, sy, sz)
-        counts[cell] = n + 1
+        cov.add_to(cell)
         h = self._hist
         i = self._hi * 5
         h[i] = sx
@@ -185,7 +184,6 @@ class Session:
     def _backoff(self):
         """Remove samples accepted in the second before a disturbance was detected."""
         h = self._hist
-        counts = self.cov.counts
         back = self._back
         while self._hn:
             j = (self._hi - 1) % _HIST
@@ -193,9 +191,7 @@ class Session:
             if self.seen - h[i + 3] > back:
                 break
             self.fit.remove(h[i], h[i + 1], h[i + 2])
-            cell = h[i + 4]
-            if counts[cell] > 0:
-                counts[cell] -= 1
+            self.cov.remove_from(h[i + 4])
             self._hi = j
             self._hn -= 1
             self.removed += 1
@@ -282,18 +278,24 @@ class Session:
         return check_calibration(cal, self.cfg, self.k)
 
 
+def _number(d, key):
+    # diagnostics may come from a set-cal request: only a number counts
+    v = d.get(key)
+    return v if isinstance(v, (int, float)) and not isinstance(v, bool) else None
+
+
 def check_calibration(cal, cfg, k):
     """Physical and statistical sanity of a calibration on inputs of k nT/unit."""
     d = cal.diagnostics
-    rms = d.get("rms")
+    rms = _number(d, "rms")
     if rms is not None and rms > cfg["max_rms_nt"]:
         return ("rms_too_high", "fit residual %.2f nT > %.2f nT: hold the sensor away from iron and rotate smoothly"
                 % (rms, cfg["max_rms_nt"]))
-    obs = d.get("observability")
+    obs = _number(d, "observability")
     if obs is not None and obs < cfg["min_observability"]:
         return ("poor_observability", "observability %.3f < %.3f: rotate about all three axes"
                 % (obs, cfg["min_observability"]))
-    pe = d.get("predicted_error")
+    pe = _number(d, "predicted_error")
     if pe is not None and pe > cfg["max_predicted_nt"]:
         return ("predicted_error_too_high", "predicted error %.2f nT > %.2f nT: cover more orientations"
                 % (pe, cfg["max_predicted_nt"]))

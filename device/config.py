@@ -1,12 +1,14 @@
 """Board configuration: one JSON file (config.json) over documented defaults.
 
-Every key has a default, a type and a range; `set_value` validates one key,
-`load` keeps the defaults for anything missing or invalid and reports it, so a
-bad file never stops the device. docs/firmware.md lists the keys and why each
-default was chosen.
-"""
+    cfg, problems = from_dict(body)       # defaults, overlaid with body's valid entries
+    value = check(key, value)             # one key, or ValueError naming the problem
+    cross_check(cfg)                      # relations between keys (window <= decim, ...)
+    changed(cfg)                          # what config.json stores: the non-defaults
 
-import json
+Every key has a default, a type and a range; from_dict keeps the default for
+anything missing or invalid and reports it, so a bad file never stops the
+device. docs/firmware.md lists the keys and why each default was chosen.
+"""
 
 # key: (default, kind, lo, hi). kind: "int", "float", "bool", "pin", "scale", "opt_float", "choice:a|b"
 SCHEMA = {
@@ -31,15 +33,16 @@ SCHEMA = {
     "gain_z": (1, "int", 1, 12),
     "vref_4v": (False, "bool", 0, 0),
     # front end: nT per ADC code per axis = (VREF / (2^23 - 1) / gain) / (V per nT at the pin).
-    # Default: Mag649 (0.1 V/uT, +-10 V) through a 4.5:1 divider, gain 1, 2.42 V:
-    # 2.885e-7 V / 2.222e-5 V/nT = 0.012983 nT/code (full scale +-109 uT).
-    "scale_x": (0.012983, "float", 1e-6, 1e3),
-    "scale_y": (0.012983, "float", 1e-6, 1e3),
-    "scale_z": (0.012983, "float", 1e-6, 1e3),
+    # Default: the reference front end (docs/simulator.md, the simulated handheld's):
+    # Mag649 (0.1 V/uT, +-10 V) through a 5:1 divider onto +-2 V, gain 1, 2.42 V:
+    # 2.885e-7 V / 2e-5 V/nT = 0.01442433 nT/code (full scale +-121 uT).
+    "scale_x": (0.01442433, "float", 1e-6, 1e3),
+    "scale_y": (0.01442433, "float", 1e-6, 1e3),
+    "scale_z": (0.01442433, "float", 1e-6, 1e3),
     # decimation: a 5-frame (2.5 ms) boxcar every 20 frames -> 100 samples/s to the
     # gates. The smearing experiment (docs/simulator.md): a 2.5 ms boxcar + a 1 rev/s
     # gate scores like fitting every conversion; the fit needs a few thousand
-    # samples, not 400/s. The sweep in docs/firmware.md (python -m desktop.bench_device):
+    # samples, not 400/s. The sweep in docs/firmware.md (python -m desktop.bench.device):
     # 2000/5/5 needs ~60 % of an RP2040 (40x the unix port) while calibrating,
     # 2000/20/5 ~30 % at the same accuracy, so 20 leaves headroom for streaming and
     # the 25-60x uncertainty. window <= 64 keeps the handler's sums below 2**30.
@@ -148,7 +151,3 @@ def changed(cfg):
         if cfg[k] != SCHEMA[k][0]:
             out[k] = cfg[k]
     return out
-
-
-def dumps(cfg):
-    return json.dumps(changed(cfg))

@@ -1,6 +1,6 @@
 """CircuitPython HAL: busio.SPI, digitalio, keypad; DRDY polled (no user interrupts).
 
-The contract is documented in hal_sim.py. Pins in config.json are board names
+The contract is hal.py. Pins in config.json are board names
 ("GP18", "D5", ...), looked up in `board`. CircuitPython has no user
 interrupts, so `idle()` polls DRDY and calls the handler itself. While the
 main loop is busy (a sample ~2 ms, a solve ~0.2 s on an RP2040) conversions
@@ -32,6 +32,8 @@ import digitalio
 import keypad
 import supervisor
 
+import hal
+
 try:
     import usb_cdc
     _data = usb_cdc.data
@@ -53,17 +55,13 @@ def _pin(name):
     return getattr(_board, name) if isinstance(name, str) else name
 
 
-class Board:
-    REG_BAUD = 1000000    # <= 2 fCLK = 1.024 MHz during register access, §8.3.7
-    DATA_BAUD = 8000000   # RDATAC reads may run up to 20 MHz (tSCLK 50 ns, §6.6)
-
+class Board(hal.Board):
     def __init__(self, cfg, root="/"):
         self.root = root if root != "/" else ""
         self.name = "circuitpython-" + sys.platform
         self.spi = busio.SPI(_pin(cfg["pin_sck"]), MOSI=_pin(cfg["pin_mosi"]), MISO=_pin(cfg["pin_miso"]))
         while not self.spi.try_lock():
             pass
-        self.baud = self.REG_BAUD
         self.set_spi_rate(self.REG_BAUD)
         self._cs = []
         for key in ("pin_cs0", "pin_cs1"):
@@ -88,7 +86,6 @@ class Board:
         self._clk1 = bytearray(1)   # one SCLK byte with CS high releases DRDY
 
     def set_spi_rate(self, hz):
-        self.baud = hz
         self.spi.configure(baudrate=hz, polarity=0, phase=1, bits=8)  # mode 1, §8.5.1.3
 
     def spi_write(self, chip, buf, n):
@@ -129,9 +126,6 @@ class Board:
             ev = self._keys.events.get()
         return self._pressed
 
-    def drdy(self):
-        return not self._drdy.value
-
     def attach_drdy(self, handler, rate=0, on_gap=None):
         self._handler = handler
         self._rate = rate
@@ -141,27 +135,15 @@ class Board:
     def ticks_ms(self):
         return supervisor.ticks_ms()
 
-    def ticks_us(self):
-        return (supervisor.ticks_ms() * 1000) & (_TICKS_PERIOD - 1)
-
     def ticks_diff(self, a, b):
         return ((a - b + _TICKS_HALF) & (_TICKS_PERIOD - 1)) - _TICKS_HALF
 
     def sleep_us(self, us):
         time.sleep(us / 1e6)
 
-    def sleep_ms(self, ms):
-        time.sleep(ms / 1e3)
-
     def time(self):
         t = time.time()
         return t if t > 1600000000 else None
-
-    def quit_requested(self):
-        return False
-
-    def busy(self, what, n=1):
-        pass   # the simulator charges main-loop work here; hardware just did it
 
     def idle(self):
         # Poll: DRDY low is a conversion not yet serviced (released after each one)
@@ -207,6 +189,3 @@ class Board:
             _data.write(data)
         else:
             sys.stdout.write(data.decode())
-
-    def log(self, text):
-        pass

@@ -1,6 +1,6 @@
 """MicroPython HAL (rp2, stm32, esp32): machine.SPI mode 1, DRDY on Pin.irq.
 
-The contract is documented in hal_sim.py. DRDY uses a hard IRQ where the port
+The contract is hal.py. DRDY uses a hard IRQ where the port
 accepts `hard=True` (rp2, stm32); esp32's Pin.irq has no `hard` argument and
 always schedules the handler (a soft IRQ: it may run a few ms late, which the
 ring absorbs). USB serial is sys.stdin/sys.stdout with Ctrl-C disabled while
@@ -13,6 +13,8 @@ import time
 import machine
 import micropython
 
+import hal
+
 try:
     import select
 except ImportError:
@@ -21,10 +23,7 @@ except ImportError:
 micropython.alloc_emergency_exception_buf(100)  # a traceback from the ISR, not a second fault
 
 
-class Board:
-    REG_BAUD = 1000000    # <= 2 fCLK = 1.024 MHz during register access, §8.3.7
-    DATA_BAUD = 8000000   # RDATAC reads may run up to 20 MHz (tSCLK 50 ns, §6.6)
-
+class Board(hal.Board):
     def __init__(self, cfg, root="/"):
         P = machine.Pin
         self.root = root if root != "/" else ""
@@ -39,7 +38,6 @@ class Board:
         self._drdy = P(cfg["pin_drdy"], P.IN, P.PULL_UP)
         self._button = P(cfg["pin_button"], P.IN, P.PULL_UP)  # active low to GND
         self._led = P(cfg["pin_led"], P.OUT, value=0)
-        self._mv = {}
         self._poll = None
         if select is not None:
             self._poll = select.poll()
@@ -102,9 +100,6 @@ class Board:
     def button(self):
         return self._button() == 0
 
-    def drdy(self):
-        return self._drdy() == 0
-
     def attach_drdy(self, handler, rate=0, on_gap=None):
         # rate and on_gap are for polling HALs: a hard IRQ sees every DRDY,
         # and during a main-loop stall the ring absorbs the samples (docs/firmware.md)
@@ -116,9 +111,6 @@ class Board:
     # time
     def ticks_ms(self):
         return time.ticks_ms()
-
-    def ticks_us(self):
-        return time.ticks_us()
 
     def ticks_diff(self, a, b):
         return time.ticks_diff(a, b)
@@ -133,14 +125,8 @@ class Board:
         t = time.time()
         return t if t > 1600000000 else None   # no RTC set: unknown, not 2000-01-01
 
-    def quit_requested(self):
-        return False
-
     def idle(self):
         machine.idle()   # sleeps until the next interrupt (DRDY within 1/rate s)
-
-    def busy(self, what, n=1):
-        pass             # the simulator charges main-loop work here; hardware just did it
 
     # serial (USB CDC)
     def serial_read(self):
@@ -155,6 +141,3 @@ class Board:
 
     def serial_write(self, data):
         sys.stdout.buffer.write(data)
-
-    def log(self, text):
-        pass

@@ -1,8 +1,35 @@
-# Freeze the firmware into a MicroPython build:
-#   make -C ports/rp2 BOARD=RPI_PICO FROZEN_MANIFEST=/path/to/fluxcal/device/manifest.py
+# The one list of firmware files, in MicroPython's manifest format.
+#
+# MicroPython's freezing tool runs it (bytecode in flash, see docs/firmware.md):
+#   make -C ports/rp2 BOARD=RPI_PICO FROZEN_MANIFEST=$PWD/device/manifest.py
+# desktop/firmware/files.py runs it too, with recording stand-ins for module()
+# and package(), per runtime (options.runtime): that is where device/package.json
+# (mpremote mip install), the .mpy images of the simulated boards and the
+# CircuitPython file list come from. tests/test_firmware_files.py fails when a
+# module the firmware imports is missing here or package.json has drifted.
+
+options.defaults(runtime="micropython")   # or "circuitpython", "sim" (the desktop's HAL link)
+
 metadata(description="fluxcal: ADS1292 fluxgate magnetometer with in-field calibration", version="0.1.0")
-include("$(PORT_DIR)/boards/manifest.py")
-for name in ("ads1292", "acquisition", "app", "button", "calibrate", "config", "hal_micropython",
-             "led", "protocol", "store", "survey"):
+if options.runtime == "micropython":
+    include("$(PORT_DIR)/boards/manifest.py")   # the port's own frozen modules stay
+
+# Every runtime: the application, the ADS1292 driver and the HAL contract.
+for name in ("acquisition", "ads1292", "app", "button", "calibrate", "commands", "config", "hal", "led",
+             "protocol", "store", "survey"):
     module(name + ".py", opt=3)
+
+# The runtime's HAL.
+if options.runtime == "micropython":
+    module("hal_micropython.py", opt=3)
+elif options.runtime == "circuitpython":
+    module("hal_circuitpython.py", opt=3)
+elif options.runtime == "sim":
+    for name in ("hal_sim", "sim_link", "sim_main", "sim_wire"):
+        module(name + ".py", opt=3)
+
+# The calibration core, all of it (pure Python, the same files as on the desktop).
 package("shared", base_path="..", opt=3)
+
+# Entry points: copied to the filesystem's root, never frozen (a user edits or replaces them).
+ROOT_FILES = {"micropython": ("main.py",), "circuitpython": ("code.py", "boot.py"), "sim": ()}

@@ -1,6 +1,6 @@
 """Serial protocol v1: text commands in, JSON lines out (docs/protocol.md).
 
-    proto = Protocol(app, board)
+    proto = Protocol(board, commands.TABLE, app)
     proto.poll()            # read what arrived, run complete lines, write replies
     proto.event("cal", {...})
 
@@ -9,17 +9,26 @@ Reply:    {"v": 1, "ok": true, "cmd": "status", ...}\\n
 Error:    {"v": 1, "ok": false, "cmd": "x", "error": "unknown_command", "msg": "..."}\\n
 Event:    {"v": 1, "ev": "cal" | "data" | "raw" | "boot" | "log", ...}\\n
 
-Nothing from the wire is evaluated: arguments are split on spaces, numbers go
-through int()/float(), objects through json.loads, and every handler's
-exceptions become an error line. Lines longer than MAX_LINE are discarded up
-to their newline and answered with line_too_long; the buffer never grows past
-MAX_LINE, so a flood without newlines costs no memory.
+This module only frames lines and writes replies; the commands and their table
+are commands.py. Nothing from the wire is evaluated. Every handler's exception
+becomes one error line: ProtocolError its own code, ValueError bad_argument,
+OSError io_error, MemoryError no_memory, anything else internal_error (a
+firmware bug, named, and the device keeps running). Lines longer than MAX_LINE
+are discarded up to their newline and answered with line_too_long; the buffer
+never grows past MAX_LINE, so a flood without newlines costs no memory.
 """
 
 import json
 
 VERSION = 1
 MAX_LINE = 2048
+
+
+def json_number(x, nd=3):
+    """x rounded to nd decimals for a JSON line; None for None, NaN or inf (JSON has no NaN)."""
+    if x is None or x != x or x in (float("inf"), float("-inf")):
+        return None
+    return round(x, nd)
 
 
 class ProtocolError(Exception):
@@ -30,43 +39,16 @@ class ProtocolError(Exception):
         self.code = code
 
 
-def parse_value(text):
-    """A config value from the wire: JSON scalar, else a bare word as a string."""
-    t = text.strip()
-    if t in ("true", "false", "null") or t[:1] in "-0123456789[{\"":
-        try:
-            return json.loads(t)
-        except ValueError:
-            raise ProtocolError("bad_value", "cannot parse value %r" % t[:40])
-    return t
-
-
 class Protocol:
-    def __init__(self, app, board):
-        self.app = app
+    """Line framing and replies; the commands are a table of handler(context, args) -> dict."""
+
+    def __init__(self, board, commands, context):
         self.board = board
+        self.commands = commands   # name -> handler(context, args), commands.py's TABLE
+        self.context = context     # what the handlers act on (the App)
         self._buf = bytearray()
         self._overlong = False
         self.errors = 0
-        self.commands = {
-            "version": app.cmd_version,
-            "status": app.cmd_status,
-            "get-cal": app.cmd_get_cal,
-            "set-cal": app.cmd_set_cal,
-            "clear-cal": app.cmd_clear_cal,
-            "start-cal": app.cmd_start_cal,
-            "finish-cal": app.cmd_finish_cal,
-            "cancel-cal": app.cmd_cancel_cal,
-            "get-coverage": app.cmd_get_coverage,
-            "stream": app.cmd_stream,
-            "config": app.cmd_config,
-            "help": self.cmd_help,
-        }
-
-    def cmd_help(self, args):
-        names = list(self.commands)
-        names.sort()
-        return {"commands": names}
 
     # ****** output ******
     def send(self, obj):
@@ -132,12 +114,14 @@ class Protocol:
             self.error(cmd[:32], "unknown_command", "unknown command %r; try help" % cmd[:32])
             return
         try:
-            self.reply(cmd, fn(args))
+            self.reply(cmd, fn(self.context, args))
         except ProtocolError as e:
             self.error(cmd, e.code, str(e))
-        except (ValueError, TypeError, KeyError, IndexError) as e:
-            self.error(cmd, "bad_argument", str(e) or e.__class__.__name__)
+        except ValueError as e:   # a value the handler's parsing or validation refused
+            self.error(cmd, "bad_argument", str(e) or "bad argument")
         except OSError as e:
             self.error(cmd, "io_error", str(e))
         except MemoryError:
             self.error(cmd, "no_memory", "request needs more memory than the device has")
+        except Exception as e:  # noqa: BLE001 - a firmware bug: say so, keep serving
+            self.error(cmd, "internal_error", "%s: %s" % (e.__class__.__name__, e))

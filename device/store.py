@@ -3,7 +3,7 @@
 (Named store, not storage: CircuitPython's built-in `storage` would shadow it.)
 
     store.save(root, "cal", body_dict)          # cal.tmp -> (cal.json -> cal.bak) -> cal.json
-    body, source, problem = store.load(root, "cal")
+    body, source, problem = store.load(root, "cal")   # (None, None, None): no record yet
 
 File layout: the JSON body on the first line, then "#crc32=xxxxxxxx" over the
 body's exact bytes (MicroPython dicts do not keep key order, so the checksum
@@ -108,8 +108,10 @@ def save(root, name, body):
 def load(root, name, validate=None):
     """(body, source, problem): source is "json", "tmp", "bak" or None.
 
-    validate(body) may raise ValueError to reject a record that parses but
-    makes no sense (e.g. Calibration.from_dict). Never raises.
+    problem names every file that exists but was refused (and why), else it is
+    None: no file at all is no problem, just no record. validate(body) may
+    raise ValueError to reject a record that parses but makes no sense (e.g.
+    Calibration.from_dict). Never raises.
     """
     problems = []
     for ext in ("json", "tmp", "bak"):
@@ -132,7 +134,7 @@ def load(root, name, validate=None):
             except OSError:
                 pass
         return body, ext, "; ".join(problems) or None
-    return None, None, "; ".join(problems) or "no %s file" % name
+    return None, None, "; ".join(problems) or None
 
 
 def remove(root, name):

@@ -5,6 +5,7 @@
     if cov.add(dx, dy, dz):                     # direction relative to the centre
         fit.add(x, y, z)                        # the cell was not full yet
     cov.fraction()                              # share of cells holding a sample
+    i = cov.cell(dx, dy, dz); cov.count(i); cov.add_to(i); cov.remove_from(i)   # by cell index
 
 Cells are the faces of a cube projected onto the sphere, each face cut into
 n x n cells at equal *angles* (tan of -45 .. 45 degrees), not equal lengths:
@@ -63,21 +64,31 @@ class Coverage:
             k += 1
         return k
 
-    def add(self, dx, dy, dz):
-        """Count a sample; False (and not counted) if its cell already holds `cap`."""
-        i = self.cell(dx, dy, dz)
-        c = self.counts[i]
+    def count(self, cell):
+        """Samples counted in `cell`."""
+        return self.counts[cell]
+
+    def add_to(self, cell):
+        """Count a sample in `cell`; False (and not counted) if it already holds `cap`."""
+        c = self.counts[cell]
         if self.cap is not None and c >= self.cap:
             return False
         if c < 65535:
-            self.counts[i] = c + 1
+            self.counts[cell] = c + 1
         return True
 
+    def remove_from(self, cell):
+        """Undo add_to for a sample taken back out of the fit (EllipsoidFit.remove)."""
+        if self.counts[cell] > 0:
+            self.counts[cell] -= 1
+
+    def add(self, dx, dy, dz):
+        """Count a sample by its direction; False (and not counted) if its cell is full."""
+        return self.add_to(self.cell(dx, dy, dz))
+
     def remove(self, dx, dy, dz):
-        """Undo add() for a sample taken back out of the fit (EllipsoidFit.remove)."""
-        i = self.cell(dx, dy, dz)
-        if self.counts[i] > 0:
-            self.counts[i] -= 1
+        """Undo add() for a sample taken back out of the fit."""
+        self.remove_from(self.cell(dx, dy, dz))
 
     def fraction(self, min_count=1):
         """Share of cells holding at least min_count samples, 0..1."""

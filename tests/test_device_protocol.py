@@ -11,13 +11,14 @@ import pytest
 import serial
 
 from desktop.devicesim.client import Client
-from desktop.devicesim.runner import make_world, start_device
+from desktop.devicesim.runners import start_device
+from desktop.devicesim.world import make_world
+from desktop.firmware.interpreters import micropython_exe
 
 
 @pytest.fixture
 def client(tmp_path):
-    w = make_world(seed=5, serial="pty")
-    w.analog.motion.still(60)
+    w = make_world(serial="pty", motion="stationary", seconds=5.0, seed=5)
     dev = start_device(w, str(tmp_path), kind="cpython")
     dev.run_until(0.5)
     ser = serial.Serial(w.serial_port, baudrate=115200, timeout=1, exclusive=True)
@@ -133,11 +134,9 @@ def test_start_and_cancel(client):
 
 def test_protocol_on_micropython_over_pty(tmp_path):
     """The same line protocol from the firmware running in the real `micropython` executable."""
-    from desktop.devicesim.runner import micropython_exe
     if micropython_exe() is None:
         pytest.skip("no micropython executable")
-    w = make_world(seed=6, serial="pty")
-    w.analog.motion.still(30)
+    w = make_world(serial="pty", motion="stationary", seconds=5.0, seed=6)
     dev = start_device(w, str(tmp_path), kind="micropython")
     try:
         dev.run_until(0.3)

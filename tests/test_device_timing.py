@@ -8,15 +8,14 @@ exact; against the charged stall time it is +-1 conversion per stall (the
 stall starts and ends between DRDYs).
 """
 
-import sys
-
 import pytest
 
-from desktop.devicesim.runner import COSTS_S, DEVICE, micropython_exe
-from desktop.devicesim.scenario import calibrate_and_verify
+from desktop.devicesim.costs import COSTS_S
+from desktop.devicesim.procedure import calibrate_and_verify
+from desktop.firmware.files import import_device
+from desktop.firmware.interpreters import micropython_exe
 
-sys.path.insert(0, DEVICE)
-import ads1292  # noqa: E402  (device/ is a flat MicroPython module folder)
+acquisition = import_device("acquisition")
 
 
 class Spy:
@@ -30,8 +29,8 @@ class Spy:
 
     def __init__(self, dev, world):
         self.w = world
-        self.adc = adc = dev.app.adc
-        self.st = adc.state
+        self.acq = acq = dev.app.acq
+        self.st = acq.state
         self.gaps = []          # (conversion serviced after the gap, frames)
         self.pending = 0
         self.last = None
@@ -39,40 +38,40 @@ class Spy:
         self.pushed = 0
         self.spanning = 0
         self.miscounted = 0
-        dev.board.attach_drdy(self.isr, adc.rate, self.gap)
+        dev.board.attach_drdy(self.isr, dev.app.adc.rate, self.gap)
 
     def gap(self, frames):
-        blocks = self.st[ads1292.BLOCKS]
-        self.adc.account_gap(frames)
+        blocks = self.st[acquisition.BLOCKS]
+        self.acq.account_gap(frames)
         self.pending = frames
-        if self.st[ads1292.BLOCKS] != blocks:
+        if self.st[acquisition.BLOCKS] != blocks:
             self.reads = []
 
     def isr(self, pin):
-        st, adc = self.st, self.adc
+        st, acq = self.st, self.acq
         conv = self.w.chips[0].conversions
         if self.last is not None and conv - self.last - 1 != self.pending:
             self.miscounted += 1
         self.gaps.append((conv, self.pending)) if self.pending else None
         self.last, self.pending = conv, 0
-        phase, head, blocks = st[ads1292._PHASE], st[ads1292._HEAD], st[ads1292.BLOCKS]
-        adc.isr(pin)
-        if phase >= adc._first:
+        phase, head, blocks = st[acquisition._PHASE], st[acquisition._HEAD], st[acquisition.BLOCKS]
+        acq.isr(pin)
+        if phase >= acq._first:
             self.reads.append(conv)
-        if st[ads1292._HEAD] != head:
+        if st[acquisition._HEAD] != head:
             self.pushed += 1
             r = self.reads
-            if len(r) != adc.window or r[-1] - r[0] != adc.window - 1:
+            if len(r) != acq.window or r[-1] - r[0] != acq.window - 1:
                 self.spanning += 1
-        if st[ads1292.BLOCKS] != blocks:
+        if st[acquisition.BLOCKS] != blocks:
             self.reads = []
 
 
 def _accounting(spy, dev):
     st, w, app = spy.st, spy.w, dev.app
-    assert st[ads1292.FRAMES] == w.chips[0].conversions       # seen + missed = produced
-    assert st[ads1292.BLOCKS] == (app.dec.samples + spy.adc.available() + st[ads1292.OVERFLOW]
-                                  + st[ads1292.DISCARDED])
+    assert st[acquisition.FRAMES] == w.chips[0].conversions       # seen + missed = produced
+    assert st[acquisition.BLOCKS] == (app.acq.samples + spy.acq.available() + st[acquisition.OVERFLOW]
+                                  + st[acquisition.DISCARDED])
     assert spy.miscounted == 0 and spy.spanning == 0 and spy.pushed > 500
 
 
@@ -177,25 +176,24 @@ def test_account_gap_keeps_the_boxcar_on_consecutive_conversions(decim, window):
     block number is pushed or discarded, never both, never neither."""
     import numpy as np
     board = _Counter()
-    adc = ads1292.ADS1292Pair(board, ring_frames=4096, decim=decim, window=window)
+    acq = acquisition.Acquisition(board, decim, window, ring_frames=4096)
     rng = np.random.default_rng(7)
     for _ in range(40000):
         gap = 0 if rng.random() < 0.98 else int(rng.choice([1, 2, window, decim - 1, decim, 3 * decim + 1,
                                                               int(rng.integers(1, 200))]))
         board.conv += gap
-        adc.account_gap(gap)
-        adc.isr()
+        acq.account_gap(gap)
+        acq.isr()
         board.conv += 1
-    st = adc.state
-    assert st[ads1292.FRAMES] == board.conv and st[ads1292.MISSED] > 0
+    st = acq.state
+    assert st[acquisition.FRAMES] == board.conv and st[acquisition.MISSED] > 0
+    got = []
+    acq.poll(lambda x, y, z, t: got.append((x, acq._last)), limit=acq.available())   # the sample, its block
     seen = []
-    while adc.available():
-        j = adc.pop_index()
-        x, blk = adc.ring[j], adc.ring[j + 4]
-        adc.release()
+    for x, blk in got:
         last = (blk + 1) * decim - 1
         assert x == sum(range(last - window + 1, last + 1)), (blk, x)
         seen.append(blk)
     assert len(seen) > 100 and len(set(seen)) == len(seen)
-    assert st[ads1292.BLOCKS] == len(seen) + st[ads1292.DISCARDED] + st[ads1292.OVERFLOW]
-    assert st[ads1292.BLOCKS] == board.conv // decim
+    assert st[acquisition.BLOCKS] == len(seen) + st[acquisition.DISCARDED] + st[acquisition.OVERFLOW]
+    assert st[acquisition.BLOCKS] == board.conv // decim

@@ -3,13 +3,16 @@
 import numpy as np
 import pytest
 
-from desktop.sim import ads1292 as A
+from desktop.sim.ads1292 import registers as A
+from desktop.sim.ads1292.bus import SPIBus
+from desktop.sim.ads1292.chip import ADS1292
+from desktop.sim.ads1292.convert import convert
 
 LSB = A.VREF_LOW / A.FULL_SCALE_CODE          # 288.5 nV at gain 1 [DS §8.3.8]
 
 
 def booted(chip=None, **kw):
-    chip = chip or A.ADS1292(**kw)
+    chip = chip or ADS1292(**kw)
     chip.advance(0.05)                        # past tPOR = 32 ms
     chip.select(True)
     chip.transfer([A.SDATAC])
@@ -56,7 +59,7 @@ def test_fixed_bits_hold_and_id_is_read_only():
 
 
 def test_timing_rules_are_enforced():
-    chip = A.ADS1292()
+    chip = ADS1292()
     chip.select(True)
     chip.transfer([A.SDATAC])                 # before tPOR: ignored
     assert chip.rdatac and chip.violations
@@ -163,14 +166,14 @@ def test_byte_path_equals_vectorised_path_with_noise():
     chip.load(volts, 16000)
     chip.start = True
     got = [A.parse_frame(read_frame(chip))[1] for _ in range(1500)]
-    ref = A.convert(volts, None, chip.config, first_tick=chip.start_tick + A.SETTLE_TICKS[4],
+    ref = convert(volts, None, chip.config, first_tick=chip.start_tick + A.SETTLE_TICKS[4],
                     n=1500, rng=np.random.default_rng(42))
     assert np.array_equal(np.array(got), ref)
 
 
 def test_drdy_rises_on_any_sclk_of_the_shared_bus():
-    a, b = A.ADS1292(), A.ADS1292()
-    bus = A.SPIBus([a, b])
+    a, b = ADS1292(), ADS1292()
+    bus = SPIBus([a, b])
     bus.advance(0.05)
     bus.start = True
     a.wait_drdy()
@@ -197,7 +200,7 @@ def test_faults_status_corrupt_and_bit_flips():
 
 @pytest.mark.parametrize("batch", [1, 512])
 def test_two_chips_on_one_bus_follow_the_shared_clock(batch):
-    from desktop.sim.board import Handheld
+    from desktop.sim.handheld import Handheld
     from desktop.sim.scenario import Scenario
     sc = Scenario(seconds=0.3, rate=1000, motion="hand")
     hw = Handheld(sc, t0=0.0, batch=batch)
@@ -220,7 +223,7 @@ def test_two_chips_on_one_bus_follow_the_shared_clock(batch):
         rows.append(row)
     assert hw.chips[0].tick == hw.chips[1].tick
     _, _, adc_a, adc_b = sc.rngs()
-    ref = [A.convert(c._volts, hw.grid["temp"], A.Config(c.registers), n=100, rng=rng, step=c._step,
+    ref = [convert(c._volts, hw.grid["temp"], A.Config(c.registers), n=100, rng=rng, step=c._step,
                      first_tick=c.start_tick + A.SETTLE_TICKS[3], grid_tick0=c._grid_tick0)
            for c, rng in zip(hw.chips, (adc_a, adc_b))]
     assert np.array_equal(np.array(rows), np.concatenate(ref, axis=1))
@@ -282,8 +285,8 @@ def scripted_session(chip):
 @pytest.mark.parametrize("batch", [7, 512])
 def test_batched_chip_gives_the_unbatched_byte_stream(fault, batch):
     rate = 0.2 if fault == "status-corrupt" else 0.01 if fault == "bit-flips" else None
-    ref = scripted_session(A.ADS1292(seed=3, fault=fault, fault_rate=rate))
-    got = scripted_session(A.ADS1292(seed=3, fault=fault, fault_rate=rate, batch=batch))
+    ref = scripted_session(ADS1292(seed=3, fault=fault, fault_rate=rate))
+    got = scripted_session(ADS1292(seed=3, fault=fault, fault_rate=rate, batch=batch))
     assert len(got) == len(ref) > 600
     assert got == ref
 
@@ -329,8 +332,8 @@ def test_wait_drdy_timeout_below_one_tick_still_moves_time():
 
 
 def test_bus_wait_drdy_timeout_keeps_the_chips_in_step():
-    a, b = A.ADS1292(fault="drdy-stuck-high"), A.ADS1292()
-    bus = A.SPIBus([a, b])
+    a, b = ADS1292(fault="drdy-stuck-high"), ADS1292()
+    bus = SPIBus([a, b])
     bus.advance(0.05)
     bus.start = True
     for _ in range(3):

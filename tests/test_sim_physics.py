@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from desktop.sim.capture import field_nT
+from desktop.formats.capture import field_nT
 from desktop.sim.motion import make_motion, rotation_rate, to_sensor, scan_product, qexp, qmul
 from desktop.sim.scenario import Scenario, simulate
 

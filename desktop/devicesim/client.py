@@ -17,16 +17,15 @@ class Client:
         self.dev = dev
         self.dt = dt
         self.seen = []     # every JSON line read, in order
-        self.junk = []     # lines that were not JSON (must stay empty)
+        self.junk = []     # complete lines that were not JSON (must stay empty)
+        self._partial = b""   # the start of a line whose end has not arrived yet
 
     def _drain(self):
+        data = self._partial
         while self.ser.in_waiting:
-            line = self.ser.readline()
-            if not line:
-                return
-            if not line.endswith(b"\n"):
-                self.junk.append(line)
-                return
+            data += self.ser.read(self.ser.in_waiting)
+        *lines, self._partial = data.split(b"\n")
+        for line in lines:
             try:
                 self.seen.append(json.loads(line))
             except ValueError:

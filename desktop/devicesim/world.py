@@ -1,50 +1,46 @@
-"""The simulated handheld around the firmware: two emulated ADS1292, the analog
-world, the button, the LED and the USB serial line (a real pseudo-terminal).
+"""The simulated handheld around the firmware: two emulated ADS1292 fed by the
+simulator's world (sensor, field, operator), the button, the LED and the USB
+serial line (a real pseudo-terminal).
 
-The firmware's sim HAL (device/hal_sim.py) talks to a World through a link:
-in-process, World itself is the link object (same methods as hal_sim.PipeLink);
-for the `micropython` executable, desktop/devicesim/runner.py decodes the pipe
-messages and calls the same methods. Simulated time advances only here, in
-`idle` and `sleep_us`, so a run is deterministic whatever the host's speed.
-
-    w = World(analog, rate_hint=2000, serial="pty")
+    w = make_world(serial="pty", motion="hand", seconds=60, seed=1)   # Scenario settings
     w.until = 10.0                       # run budget (s of simulated time)
     w.press(hold_s=0.2)                  # the operator's thumb, from now
     w.serial_port                        # path pyserial can open
+
+The firmware's sim HAL (device/hal_sim.py) talks to a World through a link:
+in-process, World itself is the link object (the methods sim_link.PipeLink
+has); for the `micropython` executable, link_host.py decodes the pipe messages
+and calls the same methods. Simulated time advances only here, in `idle` and
+`sleep_us`, so a run is deterministic whatever the host's speed.
 """
 
 import os
 import select
 import tty
 
-import numpy as np
+from desktop.firmware.files import import_device
+from desktop.sim.handheld import Handheld
+from desktop.sim.scenario import Scenario
 
-from desktop.sim.ads1292 import ADS1292, SPIBus
+wire = import_device("sim_wire")
 
 BATCH = 512   # conversions each chip computes per vectorised call (ADS1292 `batch`)
 
-GRID_HZ = 16000
-CHUNK_S = 0.5
-_T_MASK = 0x3FFFFFFF
 
-F_DRDY, F_BUTTON, F_SERIAL, F_QUIT = 1, 2, 4, 8
+def make_world(serial="pty", fault=(None, None), chip_ids=(0x53, 0x53), t0=0.1, **scenario):
+    """A World on the simulator's Handheld for the given Scenario settings
+    (desktop/sim/scenario.py: sensor, motion, seconds, seed, rate, dipole, ...)."""
+    return World(Handheld(Scenario(**scenario), t0=t0, fault=fault, chip_ids=chip_ids), serial=serial)
 
 
 class World:
-    def __init__(self, analog=None, seed=0, serial="pty", chip_ids=(0x53, 0x53), faults=(None, None),
-                 handheld=None):
-        self.analog = analog
+    def __init__(self, handheld, serial="pty"):
         self.handheld = handheld
-        if handheld is not None:
-            # desktop.sim.board.Handheld: the simulator's full analog chain, preloaded
-            self.chips = handheld.chips
-            for c in self.chips:
-                c.batch = BATCH
-            self._loaded_to = float("inf")
-        else:
-            self.chips = [ADS1292(chip_ids[i], seed=seed + 17 * i, fault=faults[i], batch=BATCH) for i in range(2)]
-            self._loaded_to = -1.0
-        self.bus = SPIBus(self.chips)
+        self.scenario = handheld.scenario
+        self.chips = handheld.chips
+        for c in self.chips:
+            c.batch = BATCH
+        self.bus = handheld.bus
         self.t_us = 0
         self.flags = 0
         self.pending = 0
@@ -54,7 +50,6 @@ class World:
         self.button_events = []     # (t_down, t_up) seconds
         self.led_log = []           # (t, level)
         self.start_level = False
-        self.host_log = []
         self.out = bytearray()      # everything the firmware wrote to serial
         self._rx = bytearray()      # bytes from the host not yet read by the firmware
         self._tx = bytearray()      # bytes not yet accepted by the pty
@@ -74,28 +69,11 @@ class World:
     def time(self):
         return self.chips[0].time
 
-    def _ensure(self, t_end):
-        """Load analog chunks so the chips have inputs up to t_end (with look-back)."""
-        if self._loaded_to >= t_end:
-            return
-        now = self.time
-        # The grid starts 30 ms before now: conversions not yet computed look back
-        # over the sinc3 window, 3/fDR (24 ms at 125 SPS).
-        g0 = max(0.0, np.floor((now - 0.03) * GRID_HZ) / GRID_HZ)
-        end = max(t_end, now + CHUNK_S)
-        n = int(np.ceil((end - g0) * GRID_HZ)) + 1
-        t = g0 + np.arange(n) / GRID_HZ
-        v0, v1 = self.analog.volts(t)
-        self.chips[0].load(v0, GRID_HZ, g0, self.analog.temperature_c)
-        self.chips[1].load(v1, GRID_HZ, g0, self.analog.temperature_c)
-        self._loaded_to = g0 + (n - 1) / GRID_HZ
-
     def _advance(self, seconds):
-        self._ensure(self.time + seconds + 0.001)
         self.bus.advance(seconds)
 
     def _sync_time(self):
-        self.t_us = int(round(self.time * 1e6)) & _T_MASK
+        self.t_us = int(round(self.time * 1e6)) & wire.T_MASK
 
     def _button_level(self):
         t = self.time
@@ -117,10 +95,9 @@ class World:
         t = self.time if at is None else at
         self.button_events.append((t, t + hold_s))
 
-    # ****** link methods (hal_sim.PipeLink's, in-process) ******
+    # ****** link methods (sim_link.PipeLink's, in-process) ******
     def xfer(self, chip, wbuf, rbuf, n):
         data = bytes(n) if wbuf is None else bytes(wbuf[:n])
-        self._ensure(self.time + 0.001)
         self.bus.select(chip)
         rx = self.bus.transfer(data)
         self.bus.select(None)
@@ -131,13 +108,13 @@ class World:
         return rx
 
     def pin(self, which, value):
-        if which == 0:
+        if which == wire.PIN_START:
             self.start_level = bool(value)
             self.bus.start = bool(value)
-        elif which == 1:
+        elif which == wire.PIN_RESET:
             for c in self.chips:
                 c.pwdn_reset(bool(value))
-        elif which == 2:
+        elif which == wire.PIN_LED:
             self.led_log.append((self.time, value))
 
     def set_baud(self, hz):
@@ -162,7 +139,6 @@ class World:
         if limit > t:
             c0 = self.chips[0]
             if self.start_level and c0._next_drdy is not None:
-                self._ensure(t + (c0._next_drdy - c0.tick) / 128000.0 + 0.001)
                 try:
                     self.bus.wait_drdy(0, timeout=limit - t)   # DRDY of chip 0 is wired to the MCU
                 except TimeoutError:
@@ -172,14 +148,14 @@ class World:
         falls = self.chips[0].drdy_falls
         if falls != self._falls:   # edge-triggered, like Pin.irq(IRQ_FALLING)
             self._falls = falls
-            flags |= F_DRDY
+            flags |= wire.F_DRDY
         if self._button_level():
-            flags |= F_BUTTON
+            flags |= wire.F_BUTTON
         self._pump_serial()
         if self._rx:
-            flags |= F_SERIAL
+            flags |= wire.F_SERIAL
         if self.quit:
-            flags |= F_QUIT
+            flags |= wire.F_QUIT
         self.flags = flags
         self.pending = min(len(self._rx), 0xFFFF)
         self._sync_time()
@@ -199,9 +175,6 @@ class World:
         self.out += data
         self._tx += data
         self._pump_serial()
-
-    def log(self, text):
-        self.host_log.append(text)
 
     # ****** the serial line ******
     def send(self, data):

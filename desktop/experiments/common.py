@@ -4,7 +4,7 @@ import os
 
 import numpy as np
 
-from desktop.sim.capture import field_nT
+from desktop.formats.capture import field_nT
 from desktop.sim.scenario import Scenario, simulate
 
 METHOD_LABELS = {"algebraic": "geometric (algebraic ellipsoid fit)", "paper-nn": "paper's neural network",
@@ -20,9 +20,9 @@ def moving_average(h, rate, window_s=0.1, hop_s=0.01):
     return (c[starts + k] - c[starts]) / k
 
 
-def capture_nT(**scenario):
-    """Simulate; return raw readings (N, 3) nT and the capture."""
-    cap = simulate(Scenario(**scenario))
+def capture_nT(truth=False, **scenario):
+    """Simulate; return raw readings (N, 3) nT and the capture (with the truth if asked)."""
+    cap = simulate(Scenario(**scenario), truth=truth)
     return field_nT(cap), cap
 
 
@@ -32,7 +32,7 @@ def thin(h, max_samples=40_000):
 
 
 def fit(h, method, field=None):
-    from desktop.fitting import fit_array
+    from desktop.methods import fit_array
     return fit_array(h, method=method, field=field)
 
 
@@ -43,7 +43,7 @@ def score(cal, h, rate=None, window_s=0.1, vector=False):
     (rotation-invariant, no smearing) or, vector=True, to the raw vectors
     before calibration (smears while the sensor turns).
     """
-    from desktop.fitting import magnitudes
+    from desktop.methods import magnitudes
     if rate and vector:
         h = moving_average(h, rate, window_s)
     m = np.linalg.norm(h, axis=1) if cal is None else magnitudes(cal, h)
@@ -89,12 +89,8 @@ def write_table(path, title, header, rows, notes=""):
 
 
 def figure():
-    try:
-        import matplotlib
-    except ImportError:
-        from desktop.errors import CommandError
-
-        raise CommandError("the experiments draw plots with matplotlib: pip install 'fluxcal[plots]'")
+    """matplotlib.pyplot on the Agg backend (`fluxcal experiment` checks it is installed)."""
+    import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt

@@ -23,7 +23,7 @@ RATE, DWELL = 1000, 0.01
 
 def _settled(motion, coverage, sigma, motion_seed, seconds):
     h, cap = capture_nT(motion=motion, coverage=coverage, noise=sigma, rate=RATE, dwell=DWELL,
-                        seconds=seconds, adc_noise=False, seed=0, motion_seed=motion_seed)
+                        seconds=seconds, adc_noise=False, seed=0, motion_seed=motion_seed, truth=True)
     t = cap["t"]
     # keep conversions >= 6 ms after a jump: the sinc3 window (3 ms) saw one attitude
     # and the 1 kHz sensor low-pass (tau 0.16 ms) has settled to e^-18

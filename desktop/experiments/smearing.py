@@ -13,6 +13,7 @@ direction between consecutive windows) and scores a held-out hand rotation
 import numpy as np
 
 from desktop.experiments.common import capture_nT, figure, fit, out_path, score, thin, write_table
+from desktop.sim.field import EARTH_NT
 
 RATES_REV_S = (0.25, 0.5, 1.0, 2.0, 3.0)
 WINDOWS_MS = (1.0, 2.5, 5.0, 10.0, 25.0, 100.0)
@@ -29,7 +30,7 @@ def simulated_bias(rev_s, window_s):
                       adc_noise=False, inclination_deg=0.0)
     k = max(int(round(window_s * SPS)), 1)
     means = h[: len(h) // k * k].reshape(-1, k, 3).mean(axis=1)
-    return 47000.0 - float(np.linalg.norm(means, axis=1).mean())
+    return EARTH_NT - float(np.linalg.norm(means, axis=1).mean())
 
 
 def windowed(h, k, gate_rev_s=None):
@@ -49,12 +50,12 @@ def run(out):
     for rev in RATES_REV_S:
         cells = [("%.2f" % rev)]
         for w in WINDOWS_MS:
-            a, s = analytic_bias(47000.0, rev, w / 1000), simulated_bias(rev, w / 1000)
+            a, s = analytic_bias(EARTH_NT, rev, w / 1000), simulated_bias(rev, w / 1000)
             grid_a[(rev, w)], grid_s[(rev, w)] = a, s
             cells.append("%.2f (%.2f)" % (s, a))
         rows1.append(cells)
     t1 = write_table(out_path(out, "smearing.md"),
-                     "Smearing bias of |B| (nT): simulated (analytic) at 47,000 nT",
+                     "Smearing bias of |B| (nT): simulated (analytic) at %.0f nT" % EARTH_NT,
                      ["rev/s \\ window"] + ["%g ms" % w for w in WINDOWS_MS], rows1)
     cal, _ = capture_nT(sensor="mag649", rate=SPS, seed=0, motion_seed=1, seconds=120.0)
     test, _ = capture_nT(sensor="mag649", rate=SPS, seed=0, motion_seed=2, seconds=30.0)

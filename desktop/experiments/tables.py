@@ -14,7 +14,6 @@ import numpy as np
 
 from desktop.experiments.common import (METHOD_LABELS, capture_nT, figure, fit, out_path,
                                         score, thin, write_table)
-from desktop.sim.capture import field_nT
 
 CAL_SECONDS, TEST_SECONDS = 120.0, 30.0
 
@@ -91,7 +90,7 @@ def fig6(out):
     spin, cap = capture_nT(sensor="mag649", rate=4000, seed=0, motion_seed=3, motion="spin", seconds=1.0)
     angle = 360.0 * cap["t"] / 1.0
     fits = {m: fit(cal, m) for m in ("algebraic", "streaming")}
-    from desktop.fitting import magnitudes
+    from desktop.methods import magnitudes
     raw = np.linalg.norm(spin, axis=1)
     plt = figure()
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))

@@ -6,11 +6,16 @@ World frame: x north, y east, z down (the usual geomagnetic NED convention).
 import numpy as np
 
 MU0_4PI_NT = 100.0          # mu0 / 4 pi = 1e-7 T m/A = 100 nT m^3 / (A m^2)
+# The simulated site, used by every part of the simulation that needs a field:
+# mid-latitude Europe (IGRF gives 47-49 uT, inclination 60-65 deg there).
+EARTH_NT = 47_000.0
+INCLINATION_DEG = 62.0
+DECLINATION_DEG = 3.0
 
 
-def earth_vector(magnitude_nT=47_000.0, inclination_deg=62.0, declination_deg=3.0):
+def earth_vector(magnitude_nT=EARTH_NT, inclination_deg=INCLINATION_DEG, declination_deg=DECLINATION_DEG):
     """Earth field vector (3,) in nT, NED, from magnitude, inclination (down
-    from horizontal) and declination (east of north). Defaults: a mid-latitude site."""
+    from horizontal) and declination (east of north). Defaults: the simulated site."""
     i, d = np.radians(inclination_deg), np.radians(declination_deg)
     return magnitude_nT * np.array([np.cos(i) * np.cos(d), np.cos(i) * np.sin(d), np.sin(i)])
 

@@ -36,7 +36,7 @@ in a field gradient.
 
 import numpy as np
 
-from desktop.sim.filters import alpha, lowpass
+from desktop.sim.filters import lowpass
 
 MOTIONS = ("hand", "guided", "spin", "uniform", "cap", "stationary")
 CONTROL_RATE = 400.0        # Hz; hand motion has no content near 200 Hz

@@ -1,7 +1,7 @@
 """The whole handheld, vectorised: operator -> field -> fluxgate -> two ADS1292.
 
     from desktop.sim.scenario import Scenario, simulate
-    cap = simulate(Scenario(seconds=120))          # dict of arrays (capture keys)
+    cap = simulate(Scenario(seconds=120))          # dict of arrays (desktop/formats/capture.py keys)
 
 Chip A digitises X (CH1) and Y (CH2); chip B digitises Z (CH1) and its own
 temperature sensor (CH2, MUX=0100). Both run continuously from START at
@@ -23,8 +23,9 @@ import json
 
 import numpy as np
 
-from desktop.sim import ads1292 as ads
-from desktop.sim.field import Field, earth_vector
+from desktop.sim.ads1292 import registers as ads
+from desktop.sim.ads1292.convert import NO_NOISE, convert, sinc3_kernel
+from desktop.sim.field import DECLINATION_DEG, EARTH_NT, INCLINATION_DEG, Field, earth_vector
 from desktop.sim.filters import lowpass
 from desktop.sim.motion import make_motion, to_sensor
 from desktop.sim.sensor import Fluxgate
@@ -66,7 +67,7 @@ class Scenario:
     DEFAULTS = dict(sensor="mag649", seed=0, motion="hand", motion_seed=1, seconds=120.0,
                     rate=4000, rot_rate=1.0, coverage=1.0, noise=0.1, pink=0.0,
                     bandwidth="preset", ideal=False, adc_noise=True, gain=1, vref_4v=False,
-                    field_nT=47_000.0, inclination_deg=62.0, declination_deg=3.0,
+                    field_nT=EARTH_NT, inclination_deg=INCLINATION_DEG, declination_deg=DECLINATION_DEG,
                     drift=0.0, gradient=0.0, dipole=None, temp_c=25.0, temp_drift=0.0,
                     grid_rate="auto", dwell=0.002)
 
@@ -110,6 +111,18 @@ class Scenario:
         return [ads.standard_registers(dr, self.gain, (ads.MUX_NORMAL, ads.MUX_NORMAL), self.vref_4v),
                 ads.standard_registers(dr, self.gain, (ads.MUX_NORMAL, ads.MUX_TEMP), self.vref_4v)]
 
+    def operator(self, rng):
+        """The operator's motion (motion.Motion) over the capture, from the motion's generator."""
+        fdir = earth_vector(1.0, self.inclination_deg, self.declination_deg)
+        return make_motion(self.motion, self.seconds + 0.1, rng, rate=self.rot_rate, coverage=self.coverage,
+                           field_dir=fdir, dwell=self.dwell)
+
+    def nt_per_code(self):
+        """(3,) nominal field per code of X, Y, Z, what the firmware's scale_x/y/z must say:
+        LSB = VREF / (2^23 - 1) / gain [DS §8.3.8] over the front end's nominal V/nT."""
+        cfg = ads.Config(self.registers()[0])
+        return np.full(3, cfg.vref / ads.FULL_SCALE_CODE / cfg.gain[0] / self.fluxgate().volts_per_nT_nominal)
+
     def rngs(self):
         """Independent generators: motion, sensor noise, ADC noise of chip A and B."""
         seq = np.random.SeedSequence([int(self.seed), int(self.motion_seed)])
@@ -129,31 +142,41 @@ def _pink(rng, seconds, rms, rate=100.0):
 
 
 class AnalogChain:
-    """Computes the analog grid (ADC input volts and truth) chunk by chunk."""
+    """Computes the analog grid (ADC input volts, and truth when asked) chunk by chunk.
 
-    def __init__(self, sc, motion, noise_rng, grid_sigma_nT):
+    Chunks must follow each other (g0 of one call = g1 of the previous): the
+    sensor's low-pass state and the noise stream carry over.
+    """
+
+    def __init__(self, sc, motion, noise_rng, step, phase, truth=True):
         self.sc, self.motion = sc, motion
         self.field, self.sensor = sc.field(), sc.fluxgate()
         self.noise_rng = noise_rng
-        self.grid_sigma = grid_sigma_nT
+        # white sensor noise on the grid, scaled so that each conversion (the
+        # sinc3's weights over the grid, `phase` ticks into a grid sample) shows sc.noise rms
+        w = sinc3_kernel(ads.Config(sc.registers()[0]).decimation, step, phase)
+        self.grid_sigma = sc.noise / np.sqrt(np.sum(w ** 2))
+        self.truth = truth
         self.lp_state = None
         self.pink = _pink(noise_rng, sc.seconds + 1, sc.pink) if sc.pink else None
 
     def grid(self, g0, g1, step):
-        """Grid samples g0..g1-1: dict of volts (G, 3), temp (G,), truth arrays."""
+        """Grid samples g0..g1-1: dict of volts (G, 3) V and temp (G,) C; with truth
+        also t (G,) s, b (G, 3) nT in the sensor frame, bmag (G,) nT, q (G, 4), pos (G, 3) m."""
         t = np.arange(g0, g1) * (step / ads.F_MOD)
         q = self.motion.orientation(t)
-        pos = self.motion.position(t, q)
+        pos = self.motion.position(t, q) if self.truth or not self.field.uniform else None
         if self.field.uniform:
             bw = self.field.earth
-            bmag = np.full(len(t), np.linalg.norm(bw))
         else:
             bw = self.field.at(t, pos)
-            bmag = np.linalg.norm(bw, axis=1)
         b = to_sensor(q, bw)
-        temp = self.sc.temp_c + self.sc.temp_drift * t / 60.0 if self.sc.temp_drift else \
-            np.full(len(t), float(self.sc.temp_c))
-        r = self.sensor.reading(b, temp if self.sc.temp_drift else float(self.sc.temp_c))
+        if self.sc.temp_drift:
+            temp = self.sc.temp_c + self.sc.temp_drift * t / 60.0
+            r = self.sensor.reading(b, temp)
+        else:
+            temp = np.full(len(t), float(self.sc.temp_c))
+            r = self.sensor.reading(b, float(self.sc.temp_c))
         r, self.lp_state = self.sensor.bandlimit(r, ads.F_MOD / step, self.lp_state)
         if self.grid_sigma:
             r = r + self.noise_rng.standard_normal(r.shape) * self.grid_sigma
@@ -162,12 +185,20 @@ class AnalogChain:
             i = np.minimum(k.astype(int), len(self.pink) - 2)
             f = (k - i)[:, None]
             r = r + self.pink[i] * (1 - f) + self.pink[i + 1] * f
-        return {"volts": self.sensor.to_volts(r), "temp": temp, "b": b, "q": q,
-                "pos": pos, "bmag": bmag, "t": t}
+        out = {"volts": self.sensor.to_volts(r), "temp": temp}
+        if self.truth:
+            bmag = np.full(len(t), np.linalg.norm(bw)) if self.field.uniform else np.linalg.norm(bw, axis=1)
+            out.update(t=t, b=b, bmag=bmag, q=q, pos=pos)
+        return out
 
 
-def simulate(sc, chunk_seconds=8.0):
-    """Run a scenario; returns the capture as a dict (keys: desktop.sim.capture).
+# truth key in a capture <- grid array
+TRUTH = (("field_true", "b"), ("magnitude_true", "bmag"), ("quaternion", "q"), ("position", "pos"),
+         ("temperature_c", "temp"))
+
+
+def simulate(sc, chunk_seconds=8.0, truth=True):
+    """Run a scenario; returns the capture as a dict (keys: desktop/formats/capture.py).
 
     Parameters
     ----------
@@ -175,24 +206,24 @@ def simulate(sc, chunk_seconds=8.0):
     chunk_seconds : float
         Work in pieces of this length (bounds memory; results do not depend on it
         beyond floating-point summation order of the sensor low-pass).
+    truth : bool
+        Also return what really happened at each DRDY (field, orientation,
+        position, temperature). The codes are the same either way.
     """
     motion_rng, noise_rng, rng_a, rng_b = sc.rngs()
-    fdir = earth_vector(1.0, sc.inclination_deg, sc.declination_deg)
-    motion = make_motion(sc.motion, sc.seconds + 0.1, motion_rng, rate=sc.rot_rate,
-                         coverage=sc.coverage, field_dir=fdir, dwell=sc.dwell)
     regs = sc.registers()
     cfg_a, cfg_b = ads.Config(regs[0]), ads.Config(regs[1])
     step = ads.F_MOD // sc.grid_hz()
     d = cfg_a.decimation
     first = ads.SETTLE_TICKS[cfg_a.dr]                  # START at tick 0
-    w = ads.sinc3_kernel(d, step, first % step)
-    # white sensor noise on the grid, scaled so each conversion shows `noise` rms
-    chain = AnalogChain(sc, motion, noise_rng, sc.noise / np.sqrt(np.sum(w ** 2)))
+    chain = AnalogChain(sc, sc.operator(motion_rng), noise_rng, step, first % step, truth)
     n_total = int((sc.seconds * ads.F_MOD - first) // d) + 1
     per_chunk = max(int(chunk_seconds * cfg_a.rate), 1)
-    hist = len(w) - 1
-    out = {k: [] for k in ("codes", "b", "q", "pos", "bmag", "temp", "t")}
+    hist = len(sinc3_kernel(d, step, first % step)) - 1   # grid samples a conversion looks back
+    codes = np.empty((n_total, 4), dtype=np.int32)
+    found = {key: None for key, _ in TRUTH} if truth else {}
     buf, buf_g0, g_done = None, 0, 0
+    rng_a, rng_b = (rng_a, rng_b) if sc.adc_noise else (NO_NOISE, NO_NOISE)
     for k0 in range(0, n_total, per_chunk):
         n = min(per_chunk, n_total - k0)
         ticks0 = first + k0 * d
@@ -200,42 +231,31 @@ def simulate(sc, chunk_seconds=8.0):
         new = chain.grid(g_done, g_last + 1, step)
         if buf is None:
             buf, buf_g0 = new, 0
-        else:
+        else:   # keep the last `hist` grid samples: the sinc3 window of the next conversions
             keep = max(buf_g0, g_done - hist)
             buf = {k: np.concatenate([v[keep - buf_g0:], new[k]]) for k, v in buf.items()}
             buf_g0 = keep
         g_done = g_last + 1
-        gt0 = buf_g0 * step
-        kw = dict(first_tick=ticks0, n=n, step=step, grid_tick0=gt0)
+        kw = dict(first_tick=ticks0, n=n, step=step, grid_tick0=buf_g0 * step)
         vol = buf["volts"]
-        ca = ads.convert(vol[:, :2], None, cfg_a, rng=rng_a if sc.adc_noise else ads.NO_NOISE, **kw)
-        cb = ads.convert(np.c_[vol[:, 2], np.zeros(len(vol))], buf["temp"], cfg_b,
-                         rng=rng_b if sc.adc_noise else ads.NO_NOISE, **kw)
-        out["codes"].append(np.concatenate([ca, cb], axis=1))
-        idx = (ticks0 + np.arange(n) * d) // step - buf_g0        # grid sample at each DRDY
-        for key, src in (("b", "b"), ("q", "q"), ("pos", "pos"), ("bmag", "bmag"),
-                         ("temp", "temp"), ("t", "t")):
-            out[key].append(buf[src][idx])
-    res = {k: np.concatenate(v) for k, v in out.items()}
-    res["t"] = (first + np.arange(n_total) * d) / ads.F_MOD       # DRDY times exactly
+        codes[k0:k0 + n, :2] = convert(vol[:, :2], None, cfg_a, rng=rng_a, **kw)
+        codes[k0:k0 + n, 2:] = convert(np.c_[vol[:, 2], np.zeros(len(vol))], buf["temp"], cfg_b, rng=rng_b, **kw)
+        if truth:
+            idx = (ticks0 + np.arange(n) * d) // step - buf_g0        # grid sample at each DRDY
+            for key, src in TRUTH:
+                col = buf[src][idx]
+                if found[key] is None:
+                    found[key] = np.empty((n_total,) + col.shape[1:])
+                found[key][k0:k0 + n] = col
     a, c = chain.sensor.raw_model()
-    return {
-        "codes": res["codes"],
-        "t": res["t"],
-        "nT_per_code": nT_per_code(cfg_a, chain.sensor.volts_per_nT_nominal),
-        "field_true": res["b"],
-        "magnitude_true": res["bmag"],
-        "quaternion": res["q"],
-        "position": res["pos"],
-        "temperature_c": res["temp"],
+    cap = {
+        "codes": codes,
+        "t": (first + np.arange(n_total) * d) / ads.F_MOD,       # DRDY times exactly
+        "nT_per_code": sc.nt_per_code(),
         "sensor_matrix": a,
         "sensor_offset": c,
         "registers": np.array(regs, dtype=np.uint8),
-        "config": json.dumps(dict(sc.to_dict(), version=1, start_tick=0,
-                                  first_drdy_tick=first)),
+        "config": json.dumps(dict(sc.to_dict(), version=1, start_tick=0, first_drdy_tick=first)),
     }
-
-
-def nT_per_code(cfg, volts_per_nT):
-    """(3,) nominal field per code of X, Y, Z: LSB = VREF / (2^23 - 1) / gain [DS §8.3.8]."""
-    return np.full(3, cfg.vref / ads.FULL_SCALE_CODE / cfg.gain[0] / volts_per_nT)
+    cap.update(found)
+    return cap

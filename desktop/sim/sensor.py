@@ -15,6 +15,10 @@ bandwidth, white noise is added (nT rms per ADC conversion, see
 (sensitivity V/nT) is attenuated by the front end (per-axis divider with its
 tolerance, plus an offset in volts) onto the ADS1292 input range.
 
+:class:`Sensor` is eq. (1) alone (DC, 25 C, white noise): what the point
+samples of desktop/sim/points.py measure. :class:`Fluxgate` adds the
+temperature terms, the bandwidth and the front end, for a capture in time.
+
 Presets (:data:`PRESETS`) hold the paper's two sensors, Bartington Mag648
 (5 Hz bandwidth) and Mag649 (1 kHz); the errors are the paper's "typical values"
 (non-orthogonality < 1 degree, offset < 10 nT, scale < 0.5 %). The +-10 V for
@@ -53,7 +57,50 @@ def axes_matrix(v12, v13, v23):
     return np.array([[1.0, 0.0, 0.0], w2, [w3x, w3y, np.sqrt(1.0 - w3x ** 2 - w3y ** 2)]])
 
 
-class Fluxgate:
+class Sensor:
+    """A distorted vector magnetometer at DC and 25 C, eq. (1): h_r = S T h + o + n.
+
+    Parameters
+    ----------
+    nonorthogonality_deg : (3,) angles v12, v13, v23, degrees
+    scale_error : (3,) relative gain errors s_i
+    offset : (3,) offsets o, nT
+    noise : float
+        White noise per axis, nT rms (drawn in :meth:`measure`).
+    """
+
+    def __init__(self, nonorthogonality_deg=(0.0, 0.0, 0.0), scale_error=(0.0, 0.0, 0.0),
+                 offset=(0.0, 0.0, 0.0), noise=0.0):
+        angles = np.radians(np.asarray(nonorthogonality_deg, dtype=float))
+        self.angles_deg = np.degrees(angles)
+        self.axes = axes_matrix(*angles)
+        self.scale = 1.0 + np.asarray(scale_error, dtype=float)
+        self.offset = np.array(offset, dtype=float)
+        self.noise_nT = float(noise)
+
+    @classmethod
+    def random(cls, rng, nonorthogonality_deg=1.0, scale_error=0.005, offset=10.0, noise=0.1):
+        """Errors drawn uniformly within the bounds (defaults: the paper's typical values, II.B)."""
+        return cls(*(rng.uniform(-b, b, 3) for b in (nonorthogonality_deg, scale_error, offset)), noise)
+
+    @property
+    def distortion(self):
+        """S T: raw = distortion @ h + offset."""
+        return self.scale[:, None] * self.axes
+
+    def measure(self, field, rng=None):
+        """Raw readings (N, 3) nT of true field vectors (N, 3) nT in the sensor's orthogonal frame."""
+        raw = field @ self.distortion.T + self.offset
+        if self.noise_nT > 0:
+            raw = raw + rng.normal(0.0, self.noise_nT, raw.shape)
+        return raw
+
+    def true_correction(self):
+        """(matrix, offset) of the exact inverse, h = matrix (h_r - offset): the noise floor."""
+        return np.linalg.inv(self.distortion), self.offset.copy()
+
+
+class Fluxgate(Sensor):
     """A three-axis fluxgate plus front end, drawn from a preset and a seed.
 
     Parameters
@@ -82,18 +129,13 @@ class Fluxgate:
         def draw(bound):
             return k * rng.uniform(-bound, bound, 3)
 
-        angles = np.radians(draw(p["nonorthogonality_deg"]))
-        self.axes = axes_matrix(*angles)
-        self.angles_deg = np.degrees(angles)
-        self.scale = 1.0 + draw(p["scale_error"])
-        self.offset = draw(p["offset_nT"])
+        Sensor.__init__(self, draw(p["nonorthogonality_deg"]), draw(p["scale_error"]), draw(p["offset_nT"]),
+                        p["noise_nT"])
         self.tempco_offset = draw(p["tempco_offset_nT_per_C"])
         self.tempco_scale = draw(p["tempco_scale_ppm_per_C"]) * 1e-6
         self.att = p["attenuation"] * (1.0 + draw(p["attenuation_tolerance"]))
         self.fe_offset = draw(p["frontend_offset_V"])
-        self.distortion = self.scale[:, None] * self.axes          # S T
         self.bandwidth = p["bandwidth_hz"]
-        self.noise_nT = float(p["noise_nT"])
         self.pink_nT = float(p["pink_nT"])
 
     @property

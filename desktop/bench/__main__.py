@@ -1,0 +1,3 @@
+from desktop.bench.core import main
+
+main()

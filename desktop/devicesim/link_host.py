@@ -1,0 +1,80 @@
+"""The host's end of the simulation link: answers the firmware's messages with the World.
+
+The firmware in the `micropython` executable writes sim_wire.py messages to
+its stdout (device/sim_link.py); `serve` reads them and calls the World,
+which advances simulated time, until the firmware idles at or past the run's
+end time. The opcodes are device/sim_wire.py's, imported, never retyped.
+"""
+
+import struct
+
+from desktop.firmware.files import import_device
+
+wire = import_device("sim_wire")
+
+
+class LinkError(RuntimeError):
+    """The firmware sent something that is not a message of the wire format."""
+
+
+class HostLink:
+    def __init__(self, world, read, write):
+        self.world = world
+        self._read = read           # read(n) -> exactly n bytes (raises when the firmware died)
+        self._write = write
+        self.pending_idle = False   # the firmware waits for an idle reply
+        self.messages = 0
+
+    def _u32(self):
+        return struct.unpack("<I", self._read(4))[0]
+
+    def reply_idle(self, max_us=0):
+        w = self.world
+        w.idle(max_us)
+        self._write(struct.pack("<IBHB", w.t_us, w.flags, w.pending, 0))
+
+    def serve(self, until):
+        """Answer messages until the firmware idles with the world at `until` s (or quitting)."""
+        w = self.world
+        w.until = until
+        if self.pending_idle:
+            if w.time >= until:
+                return
+            self.pending_idle = False
+            self.reply_idle()
+        read, write = self._read, self._write
+        while True:
+            op, arg, n = struct.unpack("<BBH", read(wire.HEADER))
+            self.messages += 1
+            if op == wire.OP_READ:
+                write(w.xfer(arg, None, None, n))
+            elif op == wire.OP_XFER:
+                write(w.xfer(arg, read(n), None, n))
+            elif op == wire.OP_IDLE:
+                if w.time >= until or w.quit:
+                    self.pending_idle = True
+                    return
+                self.reply_idle()
+            elif op == wire.OP_STALL_IDLE:
+                self.reply_idle(self._u32())
+            elif op == wire.OP_STALL:
+                w.stall(self._u32(), arg)
+            elif op == wire.OP_SERIAL_READ:
+                data = w.serial_read()
+                write(struct.pack("<H", len(data)) + data)
+            elif op == wire.OP_SERIAL_WRITE:
+                w.serial_write(read(n))
+            elif op == wire.OP_PIN:
+                w.pin(arg, n)
+            elif op == wire.OP_SLEEP:
+                w.sleep_us(self._u32())
+            elif op == wire.OP_BAUD:
+                w.set_baud(self._u32())
+            else:
+                raise LinkError("bad message 0x%02X from the firmware" % op)
+
+    def quit(self):
+        """Power off: answer the waiting idle with the quit flag."""
+        if self.pending_idle:
+            self.world.quit = True
+            self.reply_idle()

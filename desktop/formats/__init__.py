@@ -1,0 +1,13 @@
+"""File formats: what fluxcal reads and writes, and nothing else.
+
+- readings.py: raw readings in nT (CSV with x,y,z, or a capture), corrected CSV.
+- capture.py: capture files (.npz) of the two ADS1292's codes, as `fluxcal simulate` writes them.
+- calibration.py: calibration records (JSON), as `fluxcal fit` writes them.
+
+Every problem with a file is a FormatError whose message is one line naming
+the file and what is wrong with it.
+"""
+
+
+class FormatError(Exception):
+    """A file that cannot be read or written: one line, `path: what is wrong`."""

@@ -1,0 +1,182 @@
+"""The serial commands: one handler each, and their table (docs/protocol.md).
+
+    Protocol(board, TABLE, app)      # protocol.py frames the lines, calls TABLE[cmd](app, args)
+
+A handler gets the App and the text after the command word, and returns the
+reply's fields as a dict. A request it refuses raises ProtocolError with a
+stable code; a bad value from Calibration.from_dict or config.check is a
+ValueError (bad_argument / bad_value).
+"""
+
+import gc
+import json
+import sys
+
+import calibrate
+import config as cfgmod
+from acquisition import BADSYNC, FRAMES, MISSED, OVERFLOW
+from protocol import VERSION, ProtocolError, json_number
+from shared.calibration import Calibration
+
+
+def parse_value(text):
+    """A config value from the wire: JSON scalar, else a bare word as a string."""
+    t = text.strip()
+    if t in ("true", "false", "null") or t[:1] in "-0123456789[{\"":
+        try:
+            return json.loads(t)
+        except ValueError:
+            raise ProtocolError("bad_value", "cannot parse value %r" % t[:40])
+    return t
+
+
+def _idle(app):
+    if app.session is not None:
+        raise ProtocolError("busy", "calibration in progress; cancel-cal first")
+
+
+def version(app, args):
+    return {"fw": app.firmware, "proto": VERSION, "runtime": app.board.name, "impl": sys.implementation.name}
+
+
+def status(app, args):
+    out = {
+        "state": "fault" if app.fault else ("calibrating" if app.session else "survey"),
+        "fault": app.fault,
+        "calibrated": app.cal is not None,
+        "cal_source": app.cal_source,
+        "cal_problem": app.cal_problem,
+        "config_problems": app.config_problems,
+        "stream": app.stream,
+        "uptime_ms": app.board.ticks_diff(app.board.ticks_ms(), app.boot_ms),
+        "temp": json_number(app.temp_c, 2),
+        "temp_warn": app.cal_temp_warn,
+        "last_cal": app.last_result,
+    }
+    if app.adc is not None:
+        acq = app.acq
+        st = acq.state
+        out["frames"] = st[FRAMES]
+        out["overflow"] = st[OVERFLOW]
+        out["missed"] = st[MISSED]
+        out["badsync"] = st[BADSYNC]
+        out["discarded"] = acq.discarded
+        out["gaps"] = acq.gaps
+        out["samples"] = acq.samples
+    if app.session is not None:
+        out["cal"] = app.session.progress()
+    if app.log is not None:
+        out["log"] = {"lines": app.log.lines, "error": app.log.error}
+    if hasattr(gc, "mem_free"):   # MicroPython, CircuitPython
+        out["mem_free"] = gc.mem_free()
+    return out
+
+
+def get_cal(app, args):
+    return {"cal": app.cal.to_dict() if app.cal is not None else None}
+
+
+def set_cal(app, args):
+    _idle(app)
+    if not args.startswith("{"):
+        raise ProtocolError("bad_argument", "set-cal takes a calibration JSON object")
+    try:
+        d = json.loads(args)
+    except ValueError:
+        raise ProtocolError("bad_json", "set-cal argument is not valid JSON")
+    cal = Calibration.from_dict(d)  # ValueError names the problem
+    problem = calibrate.check_calibration(cal, app.cfg, app.scale)
+    if problem:
+        raise ProtocolError(problem[0], problem[1])
+    cal.meta["source"] = "set-cal"
+    saved, err = app.install(cal)
+    if not saved:
+        raise ProtocolError("io_error", "calibration active but not saved: %s" % err)
+    return {"saved": True}
+
+
+def clear_cal(app, args):
+    _idle(app)
+    app.clear_calibration()
+    return {}
+
+
+def start_cal(app, args):
+    app.start_session()
+    return {}
+
+
+def finish_cal(app, args):
+    return {"result": app.finish_session()}
+
+
+def cancel_cal(app, args):
+    app.cancel_session()
+    return {}
+
+
+def get_coverage(app, args):
+    cov = app.session.cov if app.session is not None else app.last_coverage
+    if cov is None:
+        raise ProtocolError("no_coverage", "no calibration since boot")
+    return {"cells_per_edge": cov.edge, "counts": list(cov.counts), "fraction": json_number(cov.fraction())}
+
+
+def stream(app, args):
+    words = args.split()
+    if words[:1] == ["on"]:
+        words = words[1:] or ["corrected"]
+    if len(words) != 1 or words[0] not in ("off", "raw", "corrected"):
+        raise ProtocolError("bad_argument", "stream takes: on [raw|corrected] | raw | corrected | off")
+    app.set_stream(words[0])
+    return {"stream": app.stream}
+
+
+def config(app, args):
+    words = args.split(None, 2)
+    if not words or words[0] not in ("get", "set"):
+        raise ProtocolError("bad_argument", "config get [KEY] | config set KEY VALUE")
+    if words[0] == "get":
+        if len(words) == 1:
+            return {"config": app.cfg}
+        return {"key": words[1], "value": app.cfg[_known_key(app, words[1])]}
+    if len(words) != 3:
+        raise ProtocolError("bad_argument", "config set KEY VALUE")
+    _idle(app)
+    key = _known_key(app, words[1])
+    new = dict(app.cfg)
+    try:
+        new[key] = cfgmod.check(key, parse_value(words[2]))
+        cfgmod.cross_check(new)
+    except ValueError as e:
+        raise ProtocolError("bad_value", str(e))
+    app.apply_config(new)
+    return {"key": key, "value": new[key]}
+
+
+def _known_key(app, key):
+    if key not in app.cfg:
+        raise ProtocolError("unknown_key", "unknown config key %r" % key[:40])
+    return key
+
+
+def help_(app, args):
+    names = list(TABLE)
+    names.sort()
+    return {"commands": names}
+
+
+TABLE = {
+    "version": version,
+    "status": status,
+    "get-cal": get_cal,
+    "set-cal": set_cal,
+    "clear-cal": clear_cal,
+    "start-cal": start_cal,
+    "finish-cal": finish_cal,
+    "cancel-cal": cancel_cal,
+    "get-coverage": get_coverage,
+    "stream": stream,
+    "config": config,
+    "help": help_,
+}

@@ -1,0 +1,101 @@
+"""The HAL contract: everything the firmware asks of a board, written once.
+
+Each runtime has its HAL, a `Board` class that subclasses this one:
+hal_micropython.py (machine.SPI, Pin.irq), hal_circuitpython.py (busio,
+digitalio, keypad; DRDY polled) and hal_sim.py (a link to the desktop's
+emulated ADS1292). Nothing above the HAL knows which runtime it runs on.
+A method a HAL forgets raises NotImplementedError naming it; the defaults
+below are what real hardware does.
+
+Timing facts cited: [DS] = ADS1292 datasheet SBAS502C.
+"""
+
+
+class Board:
+    REG_BAUD = 1000000    # SCLK during register access: <= 2 fCLK = 1.024 MHz [DS §8.3.7]
+    DATA_BAUD = 8000000   # RDATAC frame reads may run up to 20 MHz (tSCLK 50 ns) [DS §6.6]
+    root = ""             # folder of cal.json, config.json and the logs ("" = the flash's root)
+    name = "board"        # runtime name reported by `version`
+
+    # ****** SPI bus: two chips, one chip select each, mode 1 (CPOL 0, CPHA 1) ******
+    def set_spi_rate(self, hz):
+        raise NotImplementedError("set_spi_rate")
+
+    def spi_write(self, chip, buf, n):
+        """CS of `chip` low, clock out buf[:n], CS high."""
+        raise NotImplementedError("spi_write")
+
+    def spi_write_readinto(self, chip, wbuf, rbuf, n):
+        """CS low, clock out wbuf[:n] while reading rbuf[:n], CS high."""
+        raise NotImplementedError("spi_write_readinto")
+
+    def spi_readinto(self, chip, buf):
+        """CS low, clock in len(buf) bytes with DIN low, CS high.
+
+        Called from the DRDY handler: must not allocate (a hard IRQ's rule).
+        """
+        raise NotImplementedError("spi_readinto")
+
+    # ****** pins ******
+    def set_start(self, v):
+        """The START line shared by both chips."""
+        raise NotImplementedError("set_start")
+
+    def set_reset(self, v):
+        """The PWDN/RESET line shared by both chips (low resets, [DS §8.5.1.8])."""
+        raise NotImplementedError("set_reset")
+
+    def led(self, on):
+        raise NotImplementedError("led")
+
+    def button(self):
+        """True while the button is pressed (raw level; button.py debounces)."""
+        raise NotImplementedError("button")
+
+    def attach_drdy(self, handler, rate=0, on_gap=None):
+        """Call handler(pin) on each DRDY falling edge of chip 0.
+
+        A HAL with interrupts ignores rate and on_gap. A polling HAL (no user
+        interrupts) calls on_gap(frames) from the main loop, before the
+        handler, when conversions at `rate` SPS passed unseen.
+        """
+        raise NotImplementedError("attach_drdy")
+
+    # ****** time ******
+    def ticks_ms(self):
+        raise NotImplementedError("ticks_ms")
+
+    def ticks_diff(self, a, b):
+        """a - b for two ticks_ms values, across the wrap."""
+        raise NotImplementedError("ticks_diff")
+
+    def sleep_us(self, us):
+        raise NotImplementedError("sleep_us")
+
+    def sleep_ms(self, ms):
+        self.sleep_us(ms * 1000)
+
+    def idle(self):
+        """Wait for the next event (a DRDY, at most 1/rate s away, serial or button)."""
+        raise NotImplementedError("idle")
+
+    def time(self):
+        """Wall-clock seconds since 1970, or None when the board does not know."""
+        return None
+
+    def busy(self, what, n=1):
+        """The main loop just did n units of work `what` ("solve", "sample_cal",
+        "sample"). Nothing to do on hardware, where the time really passed; the
+        simulation charges it as chip time (hal_sim.py)."""
+
+    def quit_requested(self):
+        """True when the main loop should return (the simulation's power-off)."""
+        return False
+
+    # ****** serial (USB CDC) ******
+    def serial_read(self):
+        """Bytes waiting from the host, or None; never blocks."""
+        raise NotImplementedError("serial_read")
+
+    def serial_write(self, data):
+        raise NotImplementedError("serial_write")

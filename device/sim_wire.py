@@ -1,0 +1,43 @@
+"""The simulation link's wire format, named once for both ends.
+
+The firmware under the `micropython` executable reaches the emulated chips
+through its stdin/stdout: sim_link.py writes these messages, the desktop's
+desktop/devicesim/link_host.py answers them. Little endian throughout.
+
+Request: op(1) arg(1) len(2) payload. Replies only where shown.
+"""
+
+try:
+    from micropython import const
+except ImportError:  # CPython (the desktop end): const is the identity
+    def const(x):
+        return x
+
+HEADER = const(4)          # op, arg, len (u16)
+
+OP_XFER = const(0x58)      # arg chip, len n, n bytes out -> n bytes in (one SPI transaction, CS framed)
+OP_READ = const(0x5A)      # arg chip, len n -> n bytes in (DIN held low)
+OP_IDLE = const(0x49)      # -> IDLE_REPLY: t_us u32, flags u8, pending u16, 0
+OP_STALL_IDLE = const(0x4A)  # len 4, u32 us -> IDLE_REPLY, returning after at most us (a stall
+                             # with a hard IRQ: the host's run budget does not stop it)
+OP_STALL = const(0x54)     # arg 1 = polled, len 4, u32 us: a charged stall starts (no reply);
+                           # polled: the host lets the time pass
+OP_SERIAL_READ = const(0x52)   # -> len u16, then the bytes from the host
+OP_SERIAL_WRITE = const(0x57)  # len n, n bytes to the host (no reply)
+OP_PIN = const(0x50)       # arg pin, len value (no reply)
+OP_SLEEP = const(0x53)     # len 4, u32 us busy wait (no reply)
+OP_BAUD = const(0x42)      # len 4, u32 SPI clock in Hz, sets the emulator's byte time (no reply)
+
+IDLE_REPLY = const(8)
+
+PIN_START = const(0)
+PIN_RESET = const(1)
+PIN_LED = const(2)
+
+# flags of an idle reply
+F_DRDY = const(1)          # chip 0's DRDY fell since the last idle
+F_BUTTON = const(2)        # button pressed
+F_SERIAL = const(4)        # serial bytes waiting (`pending` of them)
+F_QUIT = const(8)          # power off: the main loop returns
+
+T_MASK = const(0x3FFFFFFF)  # t_us wraps like MicroPython's ticks: a power-of-two period

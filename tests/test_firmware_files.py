@@ -1,0 +1,184 @@
+"""The one list of firmware files (device/manifest.py) against the code, the docs and a board.
+
+- package.json is what the manifest says (regenerate: python -m desktop.firmware.files > device/package.json);
+- every module a runtime's firmware imports, followed from its entry point, is in
+  that runtime's list, and every file in device/ belongs to some runtime;
+- every HAL implements the HAL contract (device/hal.py) with its signatures;
+- every runtime's files compile with mpy-cross;
+- the README's deploy commands, run as written with mpremote against a MicroPython
+  board on a pseudo-terminal, give a board on which the firmware imports.
+"""
+
+import ast
+import json
+import os
+import re
+import subprocess
+import sys
+
+import pytest
+
+from desktop.devicesim.virtual_board import VirtualBoard
+from desktop.firmware.files import (DEVICE, PACKAGE_JSON, REPO, RUNTIMES, firmware_files, package_json,
+                                    package_json_text, read_manifest, root_files)
+from desktop.firmware.image import build_image
+
+# What each runtime provides built in (C modules), as the firmware imports them.
+BUILTIN = {
+    "common": {"array", "binascii", "gc", "json", "math", "micropython", "os", "select", "struct", "sys", "time"},
+    "micropython": {"machine"},
+    "circuitpython": {"board", "busio", "digitalio", "keypad", "storage", "supervisor", "usb_cdc"},
+    "sim": set(),
+}
+
+
+def _imports(path):
+    """Module names a file imports (absolute, top level or inside functions, try/except included)."""
+    tree = ast.parse(open(path).read(), path)
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            names.add(node.module)
+            if node.module == "shared":   # `from shared import solver`: a module of the package
+                names.update("shared." + a.name for a in node.names)
+    return names
+
+
+def _source(name):
+    """device/NAME.py or shared/NAME.py for a module name the firmware imports, else None."""
+    if name.startswith("shared."):
+        path = os.path.join(REPO, *name.split(".")) + ".py"
+        return path if os.path.exists(path) else None
+    if name == "shared":
+        return os.path.join(REPO, "shared", "__init__.py")
+    path = os.path.join(DEVICE, name + ".py")
+    return path if "." not in name and os.path.exists(path) else None
+
+
+def test_package_json_is_generated_from_the_manifest():
+    with open(PACKAGE_JSON) as fh:
+        text = fh.read()
+    assert json.loads(text) == package_json(), "run: python -m desktop.firmware.files > device/package.json"
+    assert text == package_json_text()
+
+
+@pytest.mark.parametrize("runtime", RUNTIMES)
+def test_every_import_of_the_firmware_is_in_its_list(runtime):
+    listed = {os.path.normpath(src) for src, _ in firmware_files(runtime)}
+    entries = [src for src, _ in root_files(runtime)] or [os.path.join(DEVICE, "sim_main.py")]
+    todo, seen, unknown = list(entries), set(), set()
+    while todo:
+        path = todo.pop()
+        if path in seen:
+            continue
+        seen.add(path)
+        for name in _imports(path):
+            src = _source(name)
+            if src is not None:
+                todo.append(os.path.normpath(src))
+            elif name.split(".")[0] not in BUILTIN["common"] | BUILTIN[runtime] | {"shared"}:
+                unknown.add(name)
+    missing = sorted(os.path.relpath(p, REPO) for p in seen - listed - {os.path.normpath(e) for e in entries})
+    assert not missing, "imported by the %s firmware but not in device/manifest.py: %s" % (runtime, missing)
+    assert not unknown, "imports that are neither firmware files nor %s built-ins: %s" % (runtime, sorted(unknown))
+
+
+def test_every_device_file_belongs_to_a_runtime():
+    owned = {"manifest.py"}
+    for runtime in RUNTIMES:
+        owned.update(os.path.basename(src) for src, _ in firmware_files(runtime) + root_files(runtime)
+                     if os.path.dirname(src) == DEVICE)
+    stray = sorted(set(f for f in os.listdir(DEVICE) if f.endswith(".py")) - owned)
+    assert not stray, "device/ files in no runtime's list (device/manifest.py): %s" % stray
+
+
+def test_one_version_everywhere():
+    app = open(os.path.join(DEVICE, "app.py")).read()
+    fw = re.search(r'^FIRMWARE_VERSION = "([^"]+)"', app, re.M).group(1)
+    assert read_manifest()[0] == fw == package_json()["version"]
+
+
+def _methods(path):
+    """{method: argument names} of the class Board in a HAL file, and its base class names."""
+    tree = ast.parse(open(path).read(), path)
+    for node in tree.body:
+        if isinstance(node, ast.ClassDef) and node.name == "Board":
+            methods = {f.name: [a.arg for a in f.args.args] for f in node.body if isinstance(f, ast.FunctionDef)}
+            bases = [ast.unparse(b) for b in node.bases]
+            return methods, bases
+    raise AssertionError("%s defines no class Board" % path)
+
+
+def _abstract(path):
+    """Contract methods whose body raises NotImplementedError: every HAL must define them."""
+    tree = ast.parse(open(path).read(), path)
+    cls = next(n for n in tree.body if isinstance(n, ast.ClassDef) and n.name == "Board")
+    return {f.name for f in cls.body if isinstance(f, ast.FunctionDef)
+            and any(isinstance(s, ast.Raise) and "NotImplementedError" in ast.unparse(s) for s in f.body)}
+
+
+@pytest.mark.parametrize("hal", ["hal_micropython.py", "hal_circuitpython.py", "hal_sim.py"])
+def test_every_hal_keeps_the_contract(hal):
+    contract, _ = _methods(os.path.join(DEVICE, "hal.py"))
+    methods, bases = _methods(os.path.join(DEVICE, hal))
+    assert bases == ["hal.Board"]
+    missing = _abstract(os.path.join(DEVICE, "hal.py")) - set(methods)
+    assert not missing, "%s lacks %s" % (hal, sorted(missing))
+    for name, args in methods.items():
+        if name in contract and name != "__init__":
+            assert args == contract[name], "%s.%s%s differs from hal.Board.%s%s" % (hal, name, args, name,
+                                                                                 contract[name])
+        elif not name.startswith("_"):
+            raise AssertionError("%s.%s is not in the HAL contract (device/hal.py)" % (hal, name))
+
+
+@pytest.mark.parametrize("runtime", RUNTIMES)
+def test_every_runtime_compiles_with_mpy_cross(runtime, mpy_cross, tmp_path):
+    build_image(str(tmp_path), runtime=runtime, mpy_cross=mpy_cross)
+    built = sorted(os.path.relpath(os.path.join(d, f), tmp_path) for d, _, fs in os.walk(tmp_path) for f in fs)
+    assert built == sorted(t[:-3] + ".mpy" for _, t in firmware_files(runtime))
+    for src, _ in root_files(runtime):   # entry points stay source on the board, but must compile
+        r = subprocess.run([mpy_cross, "-o", str(tmp_path / "entry.mpy"), src], capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+
+
+def _readme_deploy():
+    """The mpremote lines of the README's deploy block, as a user types them."""
+    text = open(os.path.join(REPO, "README.md")).read()
+    block = re.search(r"<!-- deploy -->\n(.*?)<!-- /deploy -->", text, re.S)
+    assert block, "README.md has no <!-- deploy --> block"
+    lines = [ln.split("#")[0].strip() for ln in block.group(1).splitlines()]
+    return [ln for ln in lines if ln.startswith("mpremote ")]
+
+
+def test_docs_give_the_readme_deploy():
+    firmware_md = open(os.path.join(REPO, "docs", "firmware.md")).read()
+    for line in _readme_deploy():
+        assert line in firmware_md, "docs/firmware.md lacks the README's deploy step %r" % line
+
+
+def test_readme_deploy_gives_a_board_that_imports_the_firmware(micropython, tmp_path):
+    """`mpremote mip install ./device/package.json` etc. from a fresh clone's root, against a
+    MicroPython board on a pseudo-terminal; then every module of the MicroPython firmware but
+    its HAL (which needs the board's `machine`) imports there."""
+    mpremote = os.path.join(os.path.dirname(sys.executable), "mpremote")
+    steps = _readme_deploy()
+    assert steps[0] == "mpremote mip install ./device/package.json"
+    with VirtualBoard(tmp_path / "flash", exe=micropython) as board:
+        for line in steps:
+            words = line.split()[1:]
+            if words == ["reset"]:
+                continue   # machine.reset(): the unix port has no machine.reset to call
+            r = subprocess.run([mpremote, "connect", board.port] + words, cwd=REPO, capture_output=True,
+                               text=True, timeout=120)
+            assert r.returncode == 0, (line, r.stdout[-2000:], r.stderr[-2000:])
+        modules = [t[:-3].replace("/", ".") for _, t in firmware_files("micropython") if t != "hal_micropython.py"]
+        code = "import %s\nprint('imported', %d)" % (", ".join(modules), len(modules))
+        r = subprocess.run([mpremote, "connect", board.port, "exec", code], capture_output=True, text=True,
+                           timeout=120)
+        assert r.returncode == 0 and "imported %d" % len(modules) in r.stdout, (r.stdout[-2000:], r.stderr[-2000:])
+    flash = tmp_path / "flash"
+    assert all((flash / "lib" / target).exists() for _, target in firmware_files("micropython"))
+    assert all((flash / name).exists() for _, name in root_files("micropython"))
