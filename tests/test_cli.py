@@ -89,3 +89,30 @@ def test_missing_file_and_bad_calibration(tmp_path):
     for text, fragment in [("{", "not JSON"), ('{"matrix": [[1,0,0],[0,1,0],[0,0,1]], "offset": [0,0], "field": 1}', "offset must be a list of 3")]:
         proc = fluxcal("correct", bad(tmp_path, "cal.json", text), raw, "-o", str(tmp_path / "o.csv"))
         assert proc.returncode == 1 and fragment in proc.stderr and proc.stderr.count("\n") == 1
+
+
+def test_demo_runs_the_firmware_on_the_simulated_handheld(tmp_path):
+    """`make demo` runs `fluxcal demo`: the firmware in micropython calibrates and verifies."""
+    make = open(os.path.join(ROOT, "Makefile")).read()
+    assert "\t$(BIN)/fluxcal demo\n" in make
+    proc = fluxcal("demo", "--out", str(tmp_path))
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    assert "firmware in micropython" in proc.stdout
+    row = [ln for ln in proc.stdout.splitlines() if ln.startswith("| this firmware (micropython)")]
+    ptp = float(row[0].split("|")[2])
+    from desktop.sim.scenario import Scenario
+    from tests.device_bounds import spin_ptp_bound
+    assert ptp <= spin_ptp_bound(Scenario(rate=2000), 100), ptp
+    assert (tmp_path / "device_spin.png").exists() and (tmp_path / "device_coverage.png").exists()
+
+
+def test_core_demo_reaches_the_noise_floor():
+    proc = fluxcal("demo", "--core-only")
+    assert proc.returncode == 0, proc.stderr
+    labels = ("noise floor (true parameters)", "streaming (shared/, double)", "streaming (shared/, float32)")
+    rows = {ln[:32].strip(): [float(v) for v in ln[32:].split()[:2]] for ln in proc.stdout.splitlines()
+            if ln[:32].strip() in labels}
+    floor_var = rows["noise floor (true parameters)"][1]
+    # variance of 3600 spin samples scatters by sqrt(2/3600) = 2.4 %: the calibration may add 4 of those
+    for label in ("streaming (shared/, double)", "streaming (shared/, float32)"):
+        assert rows[label][1] <= floor_var * (1 + 4 * np.sqrt(2 / 3600)), (label, rows[label], floor_var)

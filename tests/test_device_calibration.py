@@ -16,6 +16,12 @@ from desktop.devicesim.procedure import calibrate_and_verify, events, handheld_c
 from desktop.devicesim.runners import start_device, write_config
 from desktop.devicesim.world import make_world
 from desktop.firmware.interpreters import micropython_exe
+from tests.device_bounds import spin_ptp_bound
+
+# Auto-finish is decided at provisional solves, every solve_every_s = 5 s from the press; a
+# hand at ~1 rev/s covers half the cells with a predicted error far below 1 nT by the second
+# (11.0 s measured for 3 sensors x 3 motions): the third solve is the bound.
+READY_S = 3 * 5.0 + 1.0
 
 
 @pytest.mark.skipif(micropython_exe() is None, reason="no micropython executable")
@@ -23,18 +29,15 @@ def test_full_calibration_cycle_on_micropython(tmp_path):
     r = calibrate_and_verify(kind="micropython", root=str(tmp_path), rotate_s=60.0, spin_s=10.0)
     cal = r["cal"]
     assert cal["state"] == "done" and cal["saved"] is True, cal
-    assert r["rotated_s"] <= 60.0                     # auto-finished within the target time
+    assert r["rotated_s"] <= READY_S                  # auto-finished: ready at a provisional solve
     assert r["boot"]["calibrated"] and r["boot"]["cal_source"] == "json"   # survived the power cycle
     assert len(r["spin_f_cal"]) >= 95                 # 10 s at 10 Hz
-    assert r["ptp_cal"] <= 2.0                        # the paper's best case, on the firmware's own output
+    # the headline: noise and admitted smearing only (0.64 nT here; 0.28-0.48 measured, 9 seeds)
+    assert r["ptp_cal"] <= spin_ptp_bound(r["world"].scenario, len(r["spin_f_cal"])), r["ptp_cal"]
     assert r["ptp_raw"] > 100.0                       # the uncalibrated sensor is far off (1 deg, 0.5 %)
     st = r["status"]
     assert st["overflow"] == 0 and st["badsync"] == 0 and st["gaps"] == 0
     assert st["mem_free"] > 0                         # gc.mem_free exists: this was MicroPython
-
-
-REASONS = ("too_few_samples", "degenerate_coverage", "not_ellipsoid", "non_finite", "rms_too_high",
-           "poor_observability", "predicted_error_too_high", "field_out_of_range", "bad_scale")
 
 
 def _device(tmp_path, motion, seconds, **cfg):
@@ -49,32 +52,40 @@ def _last_cal(w):
     return [e for e in events(w, "cal") if e.get("state") != "collecting"][-1]
 
 
-def test_failed_calibration_keeps_the_previous_one(tmp_path):
-    w, dev = _device(tmp_path, "hand", 40.0)
+def test_failed_calibrations_keep_the_previous_one(tmp_path):
+    w, dev = _device(tmp_path, "hand", 45.0)
     w.press(0.2)
     dev.run_until(25.0)
-    first = _last_cal(w)
-    assert first["state"] == "done"
+    assert _last_cal(w)["state"] == "done"
     w.send(b"get-cal\n")
     dev.run_until(25.1)
     before = json.loads(w.lines()[-1])["cal"]
-    # the operator configured the wrong local field: the fit is fine, the check refuses it
-    w.send(b"config set field_nt 30000\n")
-    dev.run_until(25.2)
+    # 1. finished by command after half a second: about half a turn puts the samples near
+    #    one circle. Either the solve finds the ellipsoid unconstrained (degenerate_coverage:
+    #    predicted error > 1 % of the field) or, when the shape prior carries it, the check
+    #    finds no third dimension in the scatter (poor_observability); which one depends on
+    #    the arc. Never a data-quality reason, never accepted.
     w.press(0.2)
     dev.run_until(w.time + 0.5)
-    w.send(b"finish-cal\n")              # finishing early by command
+    w.send(b"finish-cal\n")
     dev.run_until(w.time + 0.1)
-    dev.run_until(39.0)
     res = _last_cal(w)
-    # half a second of data: refused (which check fires first depends on the data)
-    assert res["state"] == "failed" and res["reason"] in REASONS and res["msg"]
+    assert res["state"] == "failed" and res["reason"] in ("degenerate_coverage", "poor_observability"), res
+    assert res["n"] < 60 and ("rotate" in res["msg"] or "coverage" in res["msg"]), res
+    # 2. the operator configured the wrong local field: the fit is fine, the check refuses it
+    w.send(b"config set field_nt 30000\n")
+    dev.run_until(w.time + 0.1)
+    w.press(0.2)
+    dev.run_until(44.0)                   # auto-finish once ready
+    res = _last_cal(w)
+    assert res["state"] == "failed" and res["reason"] == "field_out_of_range" and res["n"] > 500, res
     w.send(b"get-cal\nstatus\n")
-    dev.run_until(39.2)
+    dev.run_until(44.2)
     after = json.loads(w.lines()[-2])["cal"]
     assert after == before
     status = json.loads(w.lines()[-1])
-    assert status["calibrated"] and status["last_cal"]["reason"] == res["reason"]
+    assert status["calibrated"] and status["last_cal"]["reason"] == "field_out_of_range"
+    assert status["cal_source"] == "new"       # still the first calibration of this power-up
     dev.close()
 
 
@@ -105,7 +116,9 @@ def test_long_press_cancels_and_led_shows_states(tmp_path):
     w.press(0.2)
     dev.run_until(3.0)
     collecting = [lv for t, lv in w.led_log if 1.0 < t < 3.0]
-    assert 6 <= len(collecting) <= 10               # 2 Hz blink (250/250 ms): 8 edges in 2 s
+    # 2 Hz blink (250/250 ms): 8 edges in 2 s; the loop updates the LED at least every 20 ms,
+    # so an edge near either end of the window may fall outside it
+    assert 7 <= len(collecting) <= 9
     w.press(2.0)                                      # long press: cancel fires while held
     dev.run_until(6.0)
     res = _last_cal(w)
@@ -130,7 +143,8 @@ def test_passing_dipole_is_gated_and_calibration_stays_in_spec(tmp_path):
     # first, docs/simulator.md) and the back-off holds through the 1/r^3 tail
     assert p["rej_dist"] + p["removed"] >= 0.5 * 74, p
     assert p["removed"] > 0                           # the onset had gone in and came out again
-    assert r["ptp_cal"] <= 2.0                        # the target, despite ~1000 nT at closest approach
+    # the headline level, despite ~1000 nT at closest approach
+    assert r["ptp_cal"] <= spin_ptp_bound(r["world"].scenario, len(r["spin_f_cal"])), r["ptp_cal"]
 
 
 def test_dipole_before_any_provisional_fit_fails_and_keeps_the_previous_calibration(tmp_path):
