@@ -55,7 +55,7 @@ def run(out):
             cells.append("%.2f (%.2f)" % (s, a))
         rows1.append(cells)
     t1 = write_table(out_path(out, "smearing.md"),
-                     "Smearing bias of |B| (nT): simulated (analytic) at %.0f nT" % EARTH_NT,
+                     "Smearing bias of |B| (nT): simulated (analytic) at %s nT" % format(EARTH_NT, ",.0f"),
                      ["rev/s \\ window"] + ["%g ms" % w for w in WINDOWS_MS], rows1)
     cal, _ = capture_nT(sensor="mag649", rate=SPS, seed=0, motion_seed=1, seconds=120.0)
     test, _ = capture_nT(sensor="mag649", rate=SPS, seed=0, motion_seed=2, seconds=30.0)
