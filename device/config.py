@@ -35,10 +35,10 @@ SCHEMA = {
     # front end: nT per ADC code per axis = (VREF / (2^23 - 1) / gain) / (V per nT at the pin).
     # Default: the reference front end (docs/simulator.md, the simulated handheld's):
     # Mag649 (0.1 V/uT, +-10 V) through a 5:1 divider onto +-2 V, gain 1, 2.42 V:
-    # 2.885e-7 V / 2e-5 V/nT = 0.01442433 nT/code (full scale +-121 uT).
-    "scale_x": (0.01442433, "float", 1e-6, 1e3),
-    "scale_y": (0.01442433, "float", 1e-6, 1e3),
-    "scale_z": (0.01442433, "float", 1e-6, 1e3),
+    # 2.885e-7 V / 2e-5 V/nT = 0.0144243258 nT/code (full scale +-121 uT).
+    "scale_x": (0.0144243258, "float", 1e-6, 1e3),
+    "scale_y": (0.0144243258, "float", 1e-6, 1e3),
+    "scale_z": (0.0144243258, "float", 1e-6, 1e3),
     # decimation: a 5-frame (2.5 ms) boxcar every 20 frames -> 100 samples/s to the
     # gates. The smearing experiment (docs/simulator.md): a 2.5 ms boxcar + a 1 rev/s
     # gate scores like fitting every conversion; the fit needs a few thousand

@@ -194,9 +194,9 @@ def test_corrupt_calibration_boots_uncalibrated(tmp_path, content):
 
 def test_default_scale_is_the_reference_front_end_the_simulator_models():
     """config.py's scale_x/y/z default (a literal on the device) equals the simulator's
-    nominal nT per code (computed from the datasheet LSB and the front end) to its 7 digits."""
+    nominal nT per code (computed from the datasheet LSB and the front end) to its 10 places."""
     from desktop.sim.scenario import Scenario
     schema = import_device("config").SCHEMA
     k = Scenario().nt_per_code()
     for i, axis in enumerate("xyz"):
-        assert abs(schema["scale_" + axis][0] / k[i] - 1) < 1e-7
+        assert schema["scale_" + axis][0] == round(k[i], 10)
