@@ -126,8 +126,8 @@ class App:
         if self.log is not None:
             self.log.close()
 
-    def wait(self, stop=None):
-        """Idle until a decimated sample is ready or _HOUSE_MS passed (or stop() is true).
+    def wait(self):
+        """Idle until a decimated sample is ready or _HOUSE_MS passed.
 
         idle() returns after every DRDY (the IRQ wakes the core), so the loop
         counts DRDY periods instead of reading the clock on each: one method
@@ -136,7 +136,7 @@ class App:
         b = self.board
         if self.fault:   # no conversions to count: by the clock
             t0 = b.ticks_ms()
-            while not b.quit_requested() and not (stop is not None and stop()):
+            while not b.quit_requested():
                 b.idle()
                 if b.ticks_diff(b.ticks_ms(), t0) >= _HOUSE_MS:
                     return
@@ -144,11 +144,7 @@ class App:
         n = self._house_idles
         avail = self.acq.available
         while n > 0:
-            if avail():
-                return
-            if stop is not None and stop():
-                return
-            if b.quit_requested():
+            if avail() or b.quit_requested():
                 return
             b.idle()
             n -= 1

@@ -193,3 +193,26 @@ def test_survey_warns_when_the_temperature_left_the_calibration_temperature(tmp_
     dev.run_until(2.2)
     assert [d for d in events(w) if "temp_warn" in d][-1]["temp_warn"] is warned
     dev.close()
+
+
+@pytest.mark.skipif(micropython_exe() is None, reason="no micropython executable")
+def test_cpython_and_micropython_runs_are_the_same_run(tmp_path):
+    """The in-process runner and the `micropython` pipe runner drive the same firmware through
+    the same sequence of events: 12 s of streaming raw blocks while calibrating give the same
+    JSON lines, value for value (both unix builds compute in IEEE double)."""
+    lines = {}
+    for kind in ("cpython", "micropython"):
+        root = str(tmp_path / kind)
+        w = make_world(serial=None, motion="hand", seconds=14.0, seed=2, motion_seed=21)
+        write_config(root, **handheld_config(w.scenario), stream="raw")
+        dev = start_device(w, root, kind=kind)
+        try:
+            dev.run_until(0.5)
+            w.press(0.2)
+            dev.run_until(12.5)
+        finally:
+            dev.close()
+        lines[kind] = [json.loads(ln) for ln in w.lines()]
+    a, b = lines["cpython"], lines["micropython"]
+    assert len(a) > 100 and [e.get("ev") for e in a].count("cal") > 10
+    assert a == b

@@ -6,6 +6,9 @@
 
 With a simulated device nothing runs between calls, so `ask` advances the
 device by `dt` of simulated time after writing, then reads what it printed.
+A pty hands bytes over asynchronously, and simulated time runs far faster than
+wall time, so the client waits for its request to reach the World before the
+device runs, and reads exactly the bytes the World put into the pty.
 """
 
 import json
@@ -19,11 +22,19 @@ class Client:
         self.seen = []     # every JSON line read, in order
         self.junk = []     # complete lines that were not JSON (must stay empty)
         self._partial = b""   # the start of a line whose end has not arrived yet
+        # what crossed the pty before this client opened it is not its to read (pyserial
+        # empties the input buffer on open); count from here
+        ser.reset_input_buffer()
+        self._got = dev.world.to_host     # bytes of the World's output accounted for
+        self._sent = dev.world.from_host  # bytes of input the World has received
 
     def _drain(self):
         data = self._partial
-        while self.ser.in_waiting:
-            data += self.ser.read(self.ser.in_waiting)
+        want = self.dev.world.to_host - self._got
+        if want > 0:
+            got = self.ser.read(want)   # blocks (up to the port's timeout) until they crossed
+            self._got += len(got)
+            data += got
         *lines, self._partial = data.split(b"\n")
         for line in lines:
             try:
@@ -34,15 +45,13 @@ class Client:
     def write(self, data):
         self.ser.write(data)
         self.ser.flush()
+        self._sent += len(data)
+        self.dev.world.receive(self._sent)
 
     def step(self, dt=None):
         w = self.dev.world
         self.dev.run_until(w.time + (self.dt if dt is None else dt))
-        self._drain_available()
-
-    def _drain_available(self):
-        if self.ser.in_waiting:
-            self._drain()
+        self._drain()
 
     def ask(self, line, dt=None):
         """Send one command line; return the first reply (a dict with "ok") after it."""
@@ -59,5 +68,5 @@ class Client:
         return [d for d in self.seen if "ok" in d]
 
     def events(self, name=None):
-        self._drain_available()
+        self._drain()
         return [d for d in self.seen if "ev" in d and (name is None or d["ev"] == name)]

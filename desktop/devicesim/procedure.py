@@ -85,10 +85,9 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
                    motion_seed=motion_seed, noise=noise_nt, rate=rate, **(cal_world or {}))
     scale = w.scenario.nt_per_code()
     write_config(root, **dict(handheld_config(w.scenario), rate=rate, **config))
-    dev = start_device(w, root, kind=kind, polled=polled, costs=costs)
+    hook = {} if on_cal_device is None else {"on_boot": lambda dev: on_cal_device(dev, w)}
+    dev = start_device(w, root, kind=kind, polled=polled, costs=costs, **hook)
     try:
-        if on_cal_device is not None:
-            on_cal_device(dev, w)
         dev.run_until(0.5)
         w.press(0.2)
         t_press = w.time

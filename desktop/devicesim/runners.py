@@ -16,6 +16,7 @@ link_host.HostLink. The board's flash is the folder ROOT/flash.
 
 import os
 import subprocess
+import threading
 
 from desktop.devicesim.costs import COSTS_S, costs_us
 from desktop.devicesim.link_host import HostLink
@@ -37,36 +38,82 @@ def write_config(root, **settings):
     import_device("store").save(flash_dir(root), "config", settings)
 
 
+class DeviceDied(RuntimeError):
+    pass
+
+
 class InProcessDevice:
-    """The firmware's modules imported into this CPython process; World is the link."""
+    """The firmware's modules imported into this CPython process; World is the link.
+
+    The firmware boots and runs its own main loop (App.run) in a thread that
+    has the turn only while run_until waits: when it idles with the world's
+    time up, the World parks it (World.on_due) and hands the turn back, as the
+    pipe runner's host does with the `micropython` process; it boots during the
+    first run_until, as that process does. One thread runs at a time, so the
+    run is deterministic and sees the same sequence of events as the pipe
+    runner's. `app` and `board` exist from the first run_until on;
+    on_boot(device) runs in between, before the first conversion is serviced.
+    """
 
     kind = "cpython"
 
-    def __init__(self, world, root, polled=False, costs=COSTS_S):
-        app = import_device("app")
-        hal_sim = import_device("hal_sim")
+    def __init__(self, world, root, polled=False, costs=COSTS_S, on_boot=None):
         self.world = world
-        self.board = hal_sim.Board(world, flash_dir(root), polled=polled, costs=costs_us(costs))
-        self.app = app.App(self.board)
+        self._boot = (flash_dir(root), polled, costs_us(costs), on_boot)
+        self.board = self.app = None
+        self._turn = threading.Condition()
+        self._firmware_has_turn = False
+        self._thread = None
+        self._error = None
+        world.on_due = self._park
+
+    def _park(self):
+        if threading.current_thread() is not self._thread:
+            return   # a test driving the board from its own thread: nothing to hand back
+        with self._turn:
+            self._firmware_has_turn = False
+            self._turn.notify_all()
+            self._turn.wait_for(lambda: self._firmware_has_turn)
+
+    def _main(self):
+        try:
+            fs, polled, costs, on_boot = self._boot
+            self.board = import_device("hal_sim").Board(self.world, fs, polled=polled, costs=costs)
+            self.app = import_device("app").App(self.board)
+            if on_boot is not None:
+                on_boot(self)
+            self.app.run()
+        except BaseException as e:  # noqa: B036 - reported by run_until in the caller's thread
+            self._error = e
+        finally:
+            with self._turn:
+                self._firmware_has_turn = False
+                self._turn.notify_all()
+
+    def _give_turn(self):
+        with self._turn:
+            self._firmware_has_turn = True
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._main, name="firmware", daemon=True)
+                self._thread.start()
+            else:
+                self._turn.notify_all()
+            self._turn.wait_for(lambda: not self._firmware_has_turn)
+        if self._error is not None:
+            raise DeviceDied("the firmware raised %r" % (self._error,)) from self._error
 
     def run_until(self, t):
-        w = self.world
-        w.until = t
-        app = self.app
-
-        def stop():
-            return w.time >= t
-
-        while w.time < t and not app.quit:
-            app.step()
-            app.wait(stop)
+        """Let the firmware run until it idles with the world at `t` s (or it stops)."""
+        self.world.until = t
+        if self._thread is None or self._thread.is_alive():
+            self._give_turn()
 
     def close(self):
+        if self._thread is not None and self._thread.is_alive():
+            self.world.quit = True
+            self._give_turn()
+            self._thread.join(timeout=5)
         self.world.close()
-
-
-class DeviceDied(RuntimeError):
-    pass
 
 
 class MicroPythonDevice:

@@ -16,6 +16,7 @@ and calls the same methods. Simulated time advances only here, in `idle` and
 
 import os
 import select
+import time
 import tty
 
 from desktop.firmware.files import import_device
@@ -46,11 +47,14 @@ class World:
         self.pending = 0
         self.until = 0.0
         self.quit = False
+        self.on_due = None          # called by idle() once the run's time is up (runners.InProcessDevice)
         self._falls = 0
         self.button_events = []     # (t_down, t_up) seconds
         self.led_log = []           # (t, level)
         self.start_level = False
         self.out = bytearray()      # everything the firmware wrote to serial
+        self.to_host = 0            # bytes written into the pty (the host can read this many)
+        self.from_host = 0          # bytes read from the pty
         self._rx = bytearray()      # bytes from the host not yet read by the firmware
         self._tx = bytearray()      # bytes not yet accepted by the pty
         self.xfers = 0
@@ -132,6 +136,8 @@ class World:
         return at the next DRDY or after max_us, whatever the run budget says,
         since the firmware is busy and sees neither the button nor the budget.
         """
+        if not max_us and self.on_due is not None and self.time >= self.until and not self.quit:
+            self.on_due()           # the run's time is up: the runner parks the firmware here
         self.idles += 1
         t = self.time
         limit = t + max_us / 1e6 if max_us else self._next_event(t)
@@ -189,14 +195,31 @@ class World:
             try:
                 n = os.write(self.master, self._tx)
                 del self._tx[:n]
+                self.to_host += n
             except BlockingIOError:
                 pass
-        r, _, _ = select.select([self.master], [], [], 0)
+        self._read_host(0)
+
+    def _read_host(self, timeout):
+        r, _, _ = select.select([self.master], [], [], timeout)
         if r:
             try:
-                self._rx += os.read(self.master, 65536)
+                data = os.read(self.master, 65536)
             except (BlockingIOError, OSError):
-                pass
+                return
+            self._rx += data
+            self.from_host += len(data)
+
+    def receive(self, total, timeout=2.0):
+        """Wait (wall time) until `total` bytes from the host have crossed the pty.
+
+        A pty hands bytes over asynchronously; simulated time runs far faster
+        than that, so a client makes sure its request has arrived before it
+        lets the firmware run (the firmware's thread is parked meanwhile).
+        """
+        end = time.monotonic() + timeout
+        while self.master is not None and self.from_host < total and time.monotonic() < end:
+            self._read_host(0.01)
 
     def lines(self):
         """Everything the firmware printed, as text lines."""
