@@ -179,7 +179,7 @@ def test_survey_warns_when_the_temperature_left_the_calibration_temperature(tmp_
     dev = start_device(w, str(tmp_path), kind="cpython")
     dev.run_until(0.5)
     k = float(w.scenario.nt_per_code()[0])
-    cal = Calibration([[k, 0, 0], [0, k, 0], [0, 0, k]], [0, 0, 0], 47000.0, meta={"temperature_c": 25.0})
+    cal = Calibration([[k, 0, 0], [0, k, 0], [0, 0, k]], [0, 0, 0], w.scenario.field_nT, meta={"temperature_c": 25.0})
     w.send(b"set-cal " + json.dumps(cal.to_dict()).encode() + b"\nstream corrected\n")
     dev.run_until(2.0)
     data = events(w, "data")

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from desktop.formats.capture import field_nT
+from desktop.sim.field import EARTH_NT
 from desktop.sim.motion import make_motion, rotation_rate, to_sensor, scan_product, qexp, qmul
 from desktop.sim.scenario import Scenario, simulate
 
@@ -30,7 +31,7 @@ def test_perfect_sensor_in_a_spin_has_constant_magnitude_up_to_noise():
     # sinc3 makes neighbours correlated: about n/3 independent samples
     tol = 4 * np.sqrt(3.0 / (2 * n))
     assert abs(mag.std() / sigma - 1) < tol
-    assert abs(mag.mean() - 47000.0) < 4 * sigma * np.sqrt(3.0 / n) + 0.01
+    assert abs(mag.mean() - EARTH_NT) < 4 * sigma * np.sqrt(3.0 / n) + 0.01
     # and the raw vectors really turned around
     assert np.ptp(field_nT(cap), axis=0).min() > 10000
 
@@ -48,7 +49,7 @@ def test_averaging_over_an_arc_shrinks_the_magnitude_by_sinc(window_s):
     shrink = np.sin(theta / 2) / (k * np.sin(delta / 2))  # discrete form of sin(t/2)/(t/2)
     assert abs(shrink - np.sin(theta / 2) / (theta / 2)) < 1e-4
     # 0.5 LSB quantisation and the sinc3's own (microradian) arc bound the error
-    assert np.allclose(np.linalg.norm(blocks, axis=1), 47000.0 * shrink, atol=0.05)
+    assert np.allclose(np.linalg.norm(blocks, axis=1), EARTH_NT * shrink, atol=0.05)
     if window_s == 0.1:
         assert 0.015 < 1 - shrink < 0.017                # the issue's 1.6 %
 
@@ -90,7 +91,7 @@ def test_sensor_bandwidth_attenuates_the_rotating_field():
     cap = simulate(Scenario(motion="spin", seconds=3.0, rate=1000, ideal=True, inclination_deg=0.0,
                             bandwidth=5.0, **QUIET))
     mag = np.linalg.norm(field_nT(cap), axis=1)[1000:]  # after the filter's start
-    assert np.allclose(mag, 47000.0 / np.sqrt(1 + 0.2 ** 2), atol=0.5)
+    assert np.allclose(mag, EARTH_NT / np.sqrt(1 + 0.2 ** 2), atol=0.5)
 
 
 def test_gradient_and_dipole_change_the_true_field():
