@@ -313,6 +313,8 @@ class App:
         try:
             store.save(self.board.root, "cal", cal.to_dict())
             return True, None
+        except MemoryError:   # the record is active; the old file stays until a save succeeds
+            return False, "no memory to write cal.json"
         except OSError as e:
             return False, str(e)
 

@@ -78,8 +78,13 @@ def decode(data):
 
 
 def _read(path):
+    # the file's own size, not MAX_BYTES: a save reads its record back, and an
+    # 8 KB buffer on a fragmented heap would fail where the record fits
+    size = os.stat(path)[6]
+    if size > MAX_BYTES:
+        raise ValueError("file too large")
     with open(path, "rb") as f:
-        data = f.read(MAX_BYTES + 1)
+        data = f.read(size)
     try:
         return data.decode()
     except UnicodeError:
