@@ -58,3 +58,20 @@ def test_simulate_errors_are_one_line(tmp_path, capsys):
     assert main(["simulate", "--coverage", "0", "-o", str(tmp_path / "x.npz")]) == 1
     assert main(["simulate", "-o", str(tmp_path / "no" / "x.npz")]) == 1
     assert "directory does not exist" in capsys.readouterr().err
+
+
+def test_truth_is_stored_only_when_asked(tmp_path):
+    from desktop.formats.capture import TRUTH_KEYS
+    plain, full = tmp_path / "plain.npz", tmp_path / "full.npz"
+    common = ["--seconds", "1", "--rate", "500", "--seed", "3"]
+    assert main(["simulate", "-o", str(plain), "--csv", str(tmp_path / "plain.csv")] + common) == 0
+    assert main(["simulate", "-o", str(full), "--truth", "--csv", str(tmp_path / "full.csv")] + common) == 0
+    a, b = load_capture(plain), load_capture(full)
+    assert not set(TRUTH_KEYS) & set(a) and set(TRUTH_KEYS) <= set(b)
+    assert np.array_equal(a["codes"], b["codes"])                 # the truth changes nothing measured
+    n = len(b["t"])
+    assert b["field_true"].shape == (n, 3) and b["quaternion"].shape == (n, 4)
+    # |field_true| is |B| at the sensor: the field is uniform here
+    assert np.allclose(np.linalg.norm(b["field_true"], axis=1), b["magnitude_true"], rtol=0, atol=1e-9)
+    assert (tmp_path / "plain.csv").read_text().splitlines()[0] == "x,y,z,t,temperature_c"
+    assert (tmp_path / "full.csv").read_text().splitlines()[0] == "x,y,z,t,temperature_c,magnitude_true"
