@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: test demo bench clean
+.PHONY: test demo bench interpreters clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -12,7 +12,11 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q -e '.[test,plots]'
 	touch $(STAMP)
 
-test: $(STAMP)
+# the interpreters a board has, built once from ../shared into build/ (cached)
+interpreters: $(STAMP)
+	$(BIN)/python -m desktop.firmware.interpreters build
+
+test: $(STAMP) interpreters
 	$(BIN)/python -m pytest -q -n 2
 
 demo: $(STAMP)
@@ -22,4 +26,4 @@ bench: $(STAMP)
 	$(BIN)/python -m desktop.bench
 
 clean:
-	rm -rf $(VENV) out .pytest_cache
+	rm -rf $(VENV) out .pytest_cache build

@@ -173,8 +173,19 @@ class _State:
         if self.rss <= 0 or other.rss <= 0:
             return self.rss > other.rss
         # N log(RSS'/RSS) from the exact difference, then the prior's change.
-        rel = to_float(self.rss - other.rss) / to_float(other.rss)
-        return n * _log1p(rel) + float(self.prior_sq - other.prior_sq) > 0.0
+        # Both sums carry ~230 bits: scaled by the same power of two into the
+        # float's range first, since float(rss) is a silent inf on a
+        # single-precision port and inf/inf a nan that compares False.
+        s = -bit_length(other.rss)
+        mine = to_float(self.rss, s)
+        theirs = to_float(other.rss, s)
+        if not mine > 0.0:
+            return False   # underflowed: smaller than the other by far more than the prior can weigh
+        rel = to_float(self.rss - other.rss, s) / theirs
+        # log1p near 0, where the exact difference carries the precision; the plain
+        # ratio elsewhere (rounding can put rel at -1 when the two differ by orders)
+        change = _log1p(rel) if -1e-4 < rel < 1e-4 else math.log(mine / theirs)
+        return n * change + float(self.prior_sq - other.prior_sq) > 0.0
 
 
 def _system(pb, st):
@@ -230,6 +241,7 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
     st = best
     mu = 1e-3
     iterations = 0
+    rejected = 0       # Levenberg-Marquardt steps refused for raising the objective
     for iterations in range(1, max_iter + 1):
         h, g = _system(pb, st)
         if not _finite_all(g):
@@ -261,11 +273,14 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
                 small = biggest < math.ldexp(1.0, 2 - FRAC)
                 mu = mu / 10.0 if mu > 1e-9 else 0.0
                 break
+            rejected += 1
             mu = mu * 10.0 if mu > 0 else 1e-3
         if not moved or small:
             break
 
-    return _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error)
+    cal = _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error)
+    cal.diagnostics["rejected"] = rejected
+    return cal
 
 
 def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error):

