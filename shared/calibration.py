@@ -53,13 +53,21 @@ class Calibration:
             raise ValueError("matrix must have a positive determinant")
         self.diagnostics = dict(diagnostics) if diagnostics else {}
         self.meta = dict(meta) if meta else {}
+        # The offset as an integer and a fraction (|frac| <= 0.5, exact): an integer
+        # input (ADC codes, boxcar sums) has the integer part subtracted in integer
+        # arithmetic, so no code of several million becomes a float before it is
+        # centred (a 30-bit float holds integers to 2**22 only: float(5000001) is
+        # 5000000.0 there).
+        self._b_int = [int(math.floor(b + 0.5)) for b in self.offset]
+        self._b_frac = [b - bi for b, bi in zip(self.offset, self._b_int)]
 
     def correct(self, x, y, z):
         m = self.matrix
-        b = self.offset
-        dx = x - b[0]
-        dy = y - b[1]
-        dz = z - b[2]
+        bi = self._b_int
+        bf = self._b_frac
+        dx = (x - bi[0]) - bf[0]
+        dy = (y - bi[1]) - bf[1]
+        dz = (z - bi[2]) - bf[2]
         return (
             m[0][0] * dx + m[0][1] * dy + m[0][2] * dz,
             m[1][0] * dx + m[1][1] * dy + m[1][2] * dz,
