@@ -13,7 +13,7 @@ import serial
 from desktop.devicesim.client import Client
 from desktop.devicesim.runners import start_device
 from desktop.devicesim.world import make_world
-from desktop.firmware.interpreters import micropython_exe
+from tests.interpreters import INTERPRETERS, need
 
 
 @pytest.fixture
@@ -132,18 +132,19 @@ def test_start_and_cancel(client):
     assert client.ask("status")["calibrated"] is False
 
 
-def test_protocol_on_micropython_over_pty(tmp_path):
-    """The same line protocol from the firmware running in the real `micropython` executable."""
-    if micropython_exe() is None:
-        pytest.skip("no micropython executable")
+@pytest.mark.parametrize("name", INTERPRETERS)
+def test_protocol_on_each_interpreter_over_pty(name, tmp_path):
+    """The same line protocol from the firmware running in each interpreter a board has."""
+    need(name)
     w = make_world(serial="pty", motion="stationary", seconds=5.0, seed=6)
-    dev = start_device(w, str(tmp_path), kind="micropython")
+    dev = start_device(w, str(tmp_path), kind=name)
     try:
         dev.run_until(0.3)
         ser = serial.Serial(w.serial_port, timeout=1, exclusive=True)
         c = Client(ser, dev)
         v = c.ask("version")
-        assert v["impl"] == "micropython" and v["runtime"] == "sim-micropython"
+        impl = "circuitpython" if name == "circuitpython" else "micropython"
+        assert v["impl"] == impl and v["runtime"] == "sim-" + impl
         assert c.ask("nope")["error"] == "unknown_command"
         c.write(b"\xc3\x28\n")
         c.step()

