@@ -67,7 +67,10 @@ BLOCKS = const(8)     # blocks completed (wraps at 2**30): the ring's sequence n
 MISSED = const(9)     # conversions that passed unseen (polled DRDY): account_gap
 _NSTATE = const(10)
 MAX_WINDOW = const(64)   # window * 2**23 must stay below 2**30 (small int in the ISR)
-_MASK30 = const(0x3FFFFFFF)
+# Counters wrap from 2**30 - 1 to 0. On a 32-bit port that is the largest small int, so
+# the handler compares before it increments: (n + 1) & mask would build 2**30 first, a
+# long int, and allocating in a hard IRQ raises MemoryError (tests/micropython/isr_wrap.py).
+_WRAP = const(0x3FFFFFFF)
 
 
 class Acquisition:
@@ -134,14 +137,14 @@ class Acquisition:
         if frames > 0x20000000:
             frames = 0x20000000
         st = self.state
-        st[MISSED] = (st[MISSED] + frames) & _MASK30
-        st[FRAMES] = (st[FRAMES] + frames) & _MASK30
+        st[MISSED] = (st[MISSED] + frames) & _WRAP     # main loop: a long int on the way is fine
+        st[FRAMES] = (st[FRAMES] + frames) & _WRAP
         end = st[_PHASE] + frames   # position after the gap, from the open block's start
         ends = end // self.decim    # blocks whose last frame (always in the window) was lost
         q = end - ends * self.decim
         if ends:
-            st[BLOCKS] = (st[BLOCKS] + ends) & _MASK30
-            st[DISCARDED] = (st[DISCARDED] + ends) & _MASK30
+            st[BLOCKS] = (st[BLOCKS] + ends) & _WRAP
+            st[DISCARDED] = (st[DISCARDED] + ends) & _WRAP
             a = self.acc
             a[0] = 0
             a[1] = 0
@@ -156,7 +159,8 @@ class Acquisition:
     # ****** interrupt path: no allocation below ******
     def _isr(self, _pin=None):
         st = self.state
-        st[FRAMES] = (st[FRAMES] + 1) & _MASK30
+        n = st[FRAMES]
+        st[FRAMES] = n + 1 if n != _WRAP else 0
         p = st[_PHASE]
         q = p + 1
         if q == self.decim:
@@ -171,7 +175,8 @@ class Acquisition:
         b.spi_readinto(1, f1)
         a = self.acc
         if (f0[0] & _STATUS_MASK) != _STATUS_SYNC or (f1[0] & _STATUS_MASK) != _STATUS_SYNC:
-            st[BADSYNC] = (st[BADSYNC] + 1) & _MASK30
+            n = st[BADSYNC]
+            st[BADSYNC] = n + 1 if n != _WRAP else 0
             st[_SPOIL] = 1
         else:
             # 24-bit two's complement, MSB first: v - 2**24 when bit 23 is set,
@@ -188,17 +193,19 @@ class Acquisition:
         if q:
             return        # block still open
         blk = st[BLOCKS]
-        st[BLOCKS] = (blk + 1) & _MASK30
+        st[BLOCKS] = blk + 1 if blk != _WRAP else 0
         if st[_SPOIL]:
             st[_SPOIL] = 0
-            st[DISCARDED] = (st[DISCARDED] + 1) & _MASK30
+            n = st[DISCARDED]
+            st[DISCARDED] = n + 1 if n != _WRAP else 0
         else:
             head = st[_HEAD]
             nxt = head + 1
             if nxt == self.ring_frames:
                 nxt = 0
             if nxt == st[_TAIL]:
-                st[OVERFLOW] = (st[OVERFLOW] + 1) & _MASK30
+                n = st[OVERFLOW]
+                st[OVERFLOW] = n + 1 if n != _WRAP else 0
             else:
                 r = self.ring
                 i = head * SLOTS
@@ -241,7 +248,7 @@ class Acquisition:
             blk = ring[j + 4]
             t += 1
             st[_TAIL] = 0 if t == self.ring_frames else t   # slot free: the ISR may reuse it
-            if self._last >= 0 and blk != ((self._last + 1) & _MASK30):
+            if self._last >= 0 and blk != (self._last + 1 if self._last != _WRAP else 0):
                 self.gaps += 1
                 if on_gap is not None:
                     on_gap()

@@ -1,0 +1,28 @@
+"""The DRDY handler as a hard IRQ runs it, on every interpreter: heap locked, so any
+allocation raises MemoryError. On the 32-bit builds a small int ends at 2**30 - 1; every
+counter and accumulator starts just below its wrap point and full-scale frames fill the
+largest boxcar, so a counter that builds 2**30 before masking, or a sum past 2**30, fails."""
+
+import json
+import os
+import subprocess
+
+import pytest
+
+from tests.interpreters import INTERPRETERS, need
+
+SCRIPT = os.path.join(os.path.dirname(__file__), "micropython", "isr_wrap.py")
+
+
+@pytest.mark.parametrize("name", INTERPRETERS)
+def test_handler_wraps_its_counters_without_allocating(name, root):
+    proc = subprocess.run([need(name), SCRIPT, root], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert out["errors"] == []
+    top = (1 << 30) - 1
+    frames = 3 * 64                                   # three blocks of MAX_WINDOW = decim = 64 frames
+    assert out["frames"] == (top - 2 + frames) % (1 << 30)
+    assert out["blocks"] == (top - 2 + 3) % (1 << 30)
+    full = 64 * ((1 << 23) - 1)                       # the largest boxcar sum: under 2**29
+    assert out["samples"] == [[full] * 4] * 3
