@@ -20,7 +20,10 @@ try:
 except ImportError:
     select = None
 
-micropython.alloc_emergency_exception_buf(100)  # a traceback from the ISR, not a second fault
+try:
+    micropython.alloc_emergency_exception_buf(100)  # a traceback from the ISR, not a second fault
+except AttributeError:  # a port without the emergency buffer (the unix port)
+    pass
 
 
 class Board(hal.Board):

@@ -9,16 +9,18 @@ into preallocated buffers only.
 
 import sys
 
-from sim_wire import (IDLE_REPLY, OP_BAUD, OP_IDLE, OP_PIN, OP_READ, OP_SERIAL_READ, OP_SERIAL_WRITE,
-                      OP_SLEEP, OP_STALL, OP_STALL_IDLE, OP_XFER)
+from sim_wire import (IDLE_REPLY, OP_BAUD, OP_IDLE, OP_PIN, OP_POLL, OP_READ, OP_SERIAL_READ,
+                      OP_SERIAL_WRITE, OP_SLEEP, OP_STALL, OP_STALL_IDLE, OP_XFER)
 
 _CHUNK = 4096   # serial writes split below the u16 length field
 
 
 class PipeLink:
-    def __init__(self):
-        self._r = sys.stdin.buffer.readinto
-        self._w = sys.stdout.buffer.write
+    """Over stdin/stdout by default, or over the given binary files (reader, writer)."""
+
+    def __init__(self, reader=None, writer=None):
+        self._r = (reader or sys.stdin.buffer).readinto
+        self._w = (writer or sys.stdout.buffer).write
         self._hdr = bytearray(4)
         self._u32 = bytearray(4)
         self._idle = bytearray(IDLE_REPLY)
@@ -59,13 +61,23 @@ class PipeLink:
         else:
             self._send(OP_XFER, chip, n)
             self._w(wbuf if n == len(wbuf) else memoryview(wbuf)[:n])
-        self._read(self._zero if rbuf is None else rbuf, n)
+        if rbuf is None:
+            rbuf = self._zero if n <= len(self._zero) else bytearray(n)
+        self._read(rbuf, n)
 
     def idle(self, max_us=0):
         if max_us:
             self._send_u32(OP_STALL_IDLE, 0, max_us)
         else:
             self._send(OP_IDLE, 0, 0)
+        self._reply()
+
+    def poll(self, max_us):
+        """A pin read that takes time: see sim_wire.OP_POLL."""
+        self._send_u32(OP_POLL, 0, max_us)
+        self._reply()
+
+    def _reply(self):
         b = self._idle
         self._read(b, IDLE_REPLY)
         self.t_us = b[0] | (b[1] << 8) | (b[2] << 16) | ((b[3] & 0x3F) << 24)

@@ -33,8 +33,10 @@ except ImportError:  # CircuitPython builds without binascii.crc32
 MAX_BYTES = 8192  # larger files are not ours: refuse before reading them into RAM
 
 
-def _path(root, name):
-    return root + "/" + name
+def file_path(root, name):
+    """root/name; a root of "" is the current folder (the flash's root on a board: "/" on
+    rp2 and esp32, "/flash" on a pyboard), so the same names work on every port."""
+    return root + "/" + name if root else name
 
 
 def _exists(path):
@@ -93,9 +95,9 @@ def _read(path):
 
 def save(root, name, body):
     """Write body atomically; the previous record stays as NAME.bak."""
-    final = _path(root, name + ".json")
-    tmp = _path(root, name + ".tmp")
-    bak = _path(root, name + ".bak")
+    final = file_path(root, name + ".json")
+    tmp = file_path(root, name + ".tmp")
+    bak = file_path(root, name + ".bak")
     data = encode(body)
     with open(tmp, "w") as f:
         f.write(data)
@@ -120,7 +122,7 @@ def load(root, name, validate=None):
     """
     problems = []
     for ext in ("json", "tmp", "bak"):
-        path = _path(root, name + "." + ext)
+        path = file_path(root, name + "." + ext)
         if not _exists(path):
             continue
         try:
@@ -133,7 +135,7 @@ def load(root, name, validate=None):
         if ext == "tmp":
             # power failed between the renames: finish the job
             try:
-                final = _path(root, name + ".json")
+                final = file_path(root, name + ".json")
                 _remove(final)
                 os.rename(path, final)
             except OSError:
@@ -144,4 +146,4 @@ def load(root, name, validate=None):
 
 def remove(root, name):
     for ext in ("json", "tmp", "bak"):
-        _remove(_path(root, name + "." + ext))
+        _remove(file_path(root, name + "." + ext))

@@ -12,6 +12,8 @@ operator turns: 769 nT at 1 rev/s over 0.1 s (docs/simulator.md, smearing).
 
 import os
 
+from store import file_path
+
 
 class Survey:
     def __init__(self, cfg, window, sample_hz):
@@ -74,11 +76,11 @@ class RotatingLog:
         self.index = (newest + 1) % files
 
     def _name(self, i):
-        return "%s/log%d.csv" % (self.root, i)
+        return file_path(self.root, "log%d.csv" % i)
 
     def free_bytes(self):
         try:
-            s = os.statvfs(self.root)
+            s = os.statvfs(self.root or ".")
             return s[0] * s[4]   # f_bsize * f_bavail
         except (OSError, AttributeError):
             return None

@@ -18,30 +18,40 @@ class LinkError(RuntimeError):
 
 
 class HostLink:
-    def __init__(self, world, read, write):
+    def __init__(self, world, read, write, on_wait=None):
         self.world = world
         self._read = read           # read(n) -> exactly n bytes (raises when the firmware died)
         self._write = write
-        self.pending_idle = False   # the firmware waits for an idle reply
+        self.on_wait = on_wait      # called whenever the firmware waits (BoardDevice moves serial bytes)
+        self.pending = None         # the wait (OP_IDLE, or OP_POLL with its us) the firmware is blocked in
         self.messages = 0
 
     def _u32(self):
         return struct.unpack("<I", self._read(4))[0]
 
-    def reply_idle(self, max_us=0):
+    def _reply(self):
         w = self.world
-        w.idle(max_us)
         self._write(struct.pack("<IBHB", w.t_us, w.flags, w.pending, 0))
 
+    def _finish_wait(self, wait):
+        if self.on_wait is not None:
+            self.on_wait()
+        op, us = wait
+        if op == wire.OP_POLL:
+            self.world.poll(us)
+        else:
+            self.world.idle()
+        self._reply()
+
     def serve(self, until):
-        """Answer messages until the firmware idles with the world at `until` s (or quitting)."""
+        """Answer messages until the firmware waits with the world at `until` s (or quitting)."""
         w = self.world
         w.until = until
-        if self.pending_idle:
+        if self.pending is not None:
             if w.time >= until:
                 return
-            self.pending_idle = False
-            self.reply_idle()
+            wait, self.pending = self.pending, None
+            self._finish_wait(wait)
         read, write = self._read, self._write
         while True:
             op, arg, n = struct.unpack("<BBH", read(wire.HEADER))
@@ -50,13 +60,17 @@ class HostLink:
                 write(w.xfer(arg, None, None, n))
             elif op == wire.OP_XFER:
                 write(w.xfer(arg, read(n), None, n))
-            elif op == wire.OP_IDLE:
+            elif op in (wire.OP_IDLE, wire.OP_POLL):
+                wait = (op, self._u32() if op == wire.OP_POLL else 0)
+                if self.on_wait is not None:
+                    self.on_wait()
                 if w.time >= until or w.quit:
-                    self.pending_idle = True
+                    self.pending = wait     # the run's time is up: the firmware waits here
                     return
-                self.reply_idle()
+                self._finish_wait(wait)
             elif op == wire.OP_STALL_IDLE:
-                self.reply_idle(self._u32())
+                w.idle(self._u32())
+                self._reply()
             elif op == wire.OP_STALL:
                 w.stall(self._u32(), arg)
             elif op == wire.OP_SERIAL_READ:
@@ -74,7 +88,8 @@ class HostLink:
                 raise LinkError("bad message 0x%02X from the firmware" % op)
 
     def quit(self):
-        """Power off: answer the waiting idle with the quit flag."""
-        if self.pending_idle:
+        """Power off: answer the wait the firmware is blocked in with the quit flag."""
+        if self.pending is not None:
             self.world.quit = True
-            self.reply_idle()
+            wait, self.pending = self.pending, None
+            self._finish_wait(wait)

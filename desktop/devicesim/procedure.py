@@ -19,13 +19,20 @@ import numpy as np
 from desktop.devicesim.costs import COSTS_S
 from desktop.devicesim.runners import start_device, write_config
 from desktop.devicesim.world import make_world
+from desktop.firmware.files import import_device
 
 
-def handheld_config(scenario):
-    """The config.json keys that describe the simulated handheld's front end (scale_x/y/z,
-    from its nominal nT per code): what a user sets once for their board."""
+def handheld_config(scenario, kind="cpython"):
+    """The config.json keys that describe the simulated handheld (what a user sets once for
+    their board): the front end's scale_x/y/z, from its nominal nT per code, and, for a
+    CircuitPython board, the pins by their board names (its HAL looks them up in `board`;
+    the wiring is config.py's defaults, GPIO numbers)."""
     k = scenario.nt_per_code()
-    return {"scale_x": float(k[0]), "scale_y": float(k[1]), "scale_z": float(k[2])}
+    cfg = {"scale_x": float(k[0]), "scale_y": float(k[1]), "scale_z": float(k[2])}
+    if kind.startswith("board:circuitpython"):
+        schema = import_device("config").SCHEMA
+        cfg.update({key: "GP%d" % spec[0] for key, spec in schema.items() if spec[1] == "pin"})
+    return cfg
 
 
 def events(world, name=None, since=0):
@@ -84,9 +91,12 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
     w = make_world(serial=None, motion="hand", seconds=rotate_s + 3.0, seed=seed,
                    motion_seed=motion_seed, noise=noise_nt, rate=rate, **(cal_world or {}))
     scale = w.scenario.nt_per_code()
-    write_config(root, **dict(handheld_config(w.scenario), rate=rate, **config))
-    hook = {} if on_cal_device is None else {"on_boot": lambda dev: on_cal_device(dev, w)}
-    dev = start_device(w, root, kind=kind, polled=polled, costs=costs, **hook)
+    write_config(root, **dict(handheld_config(w.scenario, kind), rate=rate, **config))
+    # a board's own HAL decides polling, and charges no costs (its busy() is hardware's no-op)
+    options = {} if kind.startswith("board:") else {"polled": polled, "costs": costs}
+    if on_cal_device is not None:
+        options["on_boot"] = lambda dev: on_cal_device(dev, w)
+    dev = start_device(w, root, kind=kind, **options)
     try:
         dev.run_until(0.5)
         w.press(0.2)
@@ -121,7 +131,8 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
     # verification: power on again, one 360 degree turn about the vertical in spin_s
     w2 = make_world(serial=None, motion="spin", seconds=spin_s + 2.0, rot_rate=1.0 / spin_s,
                     seed=seed, motion_seed=motion_seed + 1, noise=noise_nt, rate=rate)
-    dev = start_device(w2, root, kind=kind, polled=polled, costs=costs)
+    options.pop("on_boot", None)
+    dev = start_device(w2, root, kind=kind, **options)
     try:
         dev.run_until(0.3)
         boot = events(w2, "boot")

@@ -1,4 +1,5 @@
-"""Run the firmware on a simulated handheld: in-process (CPython) or in `micropython`.
+"""Run the firmware on a simulated handheld: in-process (CPython), in an interpreter on the
+simulation HAL, or as a board runs it (its own HAL on stand-ins for the board's C modules).
 
     from desktop.devicesim.runners import start_device
     from desktop.devicesim.world import make_world
@@ -7,24 +8,31 @@
     dev.run_until(1.0); world.press(0.2); dev.run_until(40.0)
     dev.close()
 
-Both kinds run the same device/ code through device/hal_sim.py. "micropython"
-runs the firmware's .mpy image (desktop/firmware/image.py, the "sim"
-runtime's files) in the real MicroPython unix port as a child process, its
-link (device/sim_link.py) on the child's stdin/stdout, answered by
-link_host.HostLink. The board's flash is the folder ROOT/flash.
+InProcessDevice and MicroPythonDevice run the same device/ code through
+device/hal_sim.py: in this process, or the "sim" runtime's image
+(desktop/firmware/image.py) in an interpreter as a child process, its link
+(device/sim_link.py) on the child's stdin/stdout, answered by
+link_host.HostLink. BoardDevice deploys the "micropython" or "circuitpython"
+runtime's files and runs its own HAL (hal_micropython.py, hal_circuitpython.py)
+on the stand-ins of stand-ins/ (simboard.py has the wiring); the serial line is
+then the child's stdin/stdout, the link two more pipes. The board's flash is
+the folder ROOT/flash.
 """
 
+import fcntl
 import os
+import shutil
 import subprocess
 import threading
 
 from desktop.devicesim.costs import COSTS_S, costs_us
 from desktop.devicesim.link_host import HostLink
-from desktop.firmware.files import import_device
+from desktop.firmware.files import DEVICE, import_device, root_files
 from desktop.firmware.image import build_image
 from desktop.firmware.interpreters import interpreter as interpreter_path
 
 HEAP = "256K"   # an rp2040 gives MicroPython ~200 KB of heap; a little slack for the sim link
+STAND_INS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "stand-ins")
 
 
 def flash_dir(root):
@@ -116,7 +124,28 @@ class InProcessDevice:
         self.world.close()
 
 
-class MicroPythonDevice:
+class _ChildDevice:
+    """What both child-process devices share: the link's messages and its service loop."""
+
+    @property
+    def messages(self):
+        return self.link.messages
+
+    def run_until(self, t):
+        self.link.serve(t)
+
+    def _stop(self):
+        """Ask the firmware to quit over the link; False when it is already gone."""
+        if self.proc.poll() is not None:
+            return False
+        try:
+            self.link.quit()
+        except (BrokenPipeError, OSError):
+            pass
+        return True
+
+
+class MicroPythonDevice(_ChildDevice):
     """The firmware's image in a MicroPython (or CircuitPython) executable, its HAL piped to the World.
 
     interpreter: a name of desktop/firmware/interpreters.py (the pip `micropython`
@@ -156,17 +185,9 @@ class MicroPythonDevice:
         err = self.errfile.read().decode(errors="replace").strip()
         raise DeviceDied("micropython exited (%s): %s" % (self.proc.returncode, err[-2000:]))
 
-    @property
-    def messages(self):
-        return self.link.messages
-
-    def run_until(self, t):
-        self.link.serve(t)
-
     def close(self):
-        if self.proc.poll() is None:
+        if self._stop():
             try:
-                self.link.quit()
                 self.proc.stdin.close()
             except (BrokenPipeError, OSError):
                 pass
@@ -179,10 +200,111 @@ class MicroPythonDevice:
         self.world.close()
 
 
+class BoardDevice(_ChildDevice):
+    """The firmware as a board runs it, on stand-ins for the board's C modules.
+
+    The runtime's files (device/manifest.py: "micropython" with hal_micropython.py,
+    main.py; "circuitpython" with hal_circuitpython.py, code.py, boot.py) are
+    deployed to ROOT/flash (lib/ as .mpy for MicroPython, as sources for
+    CircuitPython, whose interpreter refuses MicroPython's .mpy); the stand-ins,
+    the board's wiring and the link form its ROM (ROOT/rom, on sys.path after the
+    flash, as frozen modules are). Power on runs boot.py, then main.py / code.py.
+    The firmware's serial line is the child's stdin/stdout; what it prints reaches
+    the World's serial (and its pty), what the World receives goes to its stdin,
+    each time the firmware waits.
+    """
+
+    kind = "board"
+
+    def __init__(self, world, root, interpreter="micropython-float32", heap=HEAP, program=None):
+        exe = interpreter_path(interpreter)
+        if exe is None:
+            raise FileNotFoundError("no %s executable (python -m desktop.firmware.interpreters list)" % interpreter)
+        self.runtime = "circuitpython" if interpreter.startswith("circuitpython") else "micropython"
+        self.interpreter = interpreter
+        self.world = world
+        fs = flash_dir(root)
+        build_image(os.path.join(fs, "lib"), runtime=self.runtime, compiled=self.runtime == "micropython")
+        for src, name in root_files(self.runtime):
+            shutil.copyfile(src, os.path.join(fs, name))
+        rom = os.path.join(root, "rom")
+        os.makedirs(rom, exist_ok=True)
+        for src in [os.path.join(STAND_INS, "simboard.py")] + [os.path.join(DEVICE, f) for f in ("sim_link.py", "sim_wire.py")] + \
+                [os.path.join(STAND_INS, self.runtime, f) for f in sorted(os.listdir(os.path.join(STAND_INS, self.runtime)))]:
+            shutil.copyfile(src, os.path.join(rom, os.path.basename(src)))
+        to_fw, self._to_fw = os.pipe()
+        self._from_fw, from_fw = os.pipe()
+        env = dict(os.environ, MICROPYPATH=":".join([rom, os.path.join(fs, "lib")]),
+                   FLUXCAL_SIMBOARD_FDS="%d,%d" % (to_fw, from_fw))
+        self.errfile = open(os.path.join(root, "micropython.stderr"), "w+b")
+        # program: what runs instead of power-on (a test's snippet on the stand-ins)
+        program = program or "import simboard\nsimboard.power_on(%r)\n" % self.runtime
+        self.proc = subprocess.Popen([exe, "-X", "heapsize=" + heap, "-c", program],
+                                     cwd=fs, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=self.errfile, pass_fds=(to_fw, from_fw), bufsize=0)
+        os.close(to_fw)
+        os.close(from_fw)
+        out = self.proc.stdout.fileno()
+        fcntl.fcntl(out, fcntl.F_SETFL, fcntl.fcntl(out, fcntl.F_GETFL) | os.O_NONBLOCK)
+        self.link = HostLink(world, self._read, self._write, on_wait=self._serial)
+
+    def _read(self, n):
+        buf = bytearray()
+        while len(buf) < n:
+            chunk = os.read(self._from_fw, n - len(buf))
+            if not chunk:
+                self._died()
+            buf += chunk
+        return bytes(buf)
+
+    def _write(self, data):
+        os.write(self._to_fw, data)
+
+    def _serial(self):
+        """Move the serial line's bytes: the firmware's output to the World, the World's input to it."""
+        while True:
+            try:
+                data = os.read(self.proc.stdout.fileno(), 65536)
+            except BlockingIOError:
+                break
+            if not data:
+                break
+            self.world.serial_write(data)
+        data = self.world.serial_read()
+        if data:
+            try:
+                self.proc.stdin.write(data)
+            except BrokenPipeError:
+                pass
+
+    def _died(self):
+        self.proc.wait(timeout=5)
+        before = len(self.world.out)
+        self._serial()           # an uncaught exception's traceback comes out on the serial line
+        self.errfile.seek(0)
+        err = self.errfile.read().decode(errors="replace") + self.world.out[before:].decode(errors="replace")
+        raise DeviceDied("%s exited (%s): %s" % (self.interpreter, self.proc.returncode, err.strip()[-2000:]))
+
+    def close(self):
+        if self._stop():
+            self.proc.kill()
+            self.proc.wait()
+        for fd in (self._to_fw, self._from_fw):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        self.errfile.close()
+        self.world.close()
+
+
 def start_device(world, root, kind="micropython", **kw):
-    """A running device: kind "cpython" (in-process) or an interpreter's name
-    ("micropython", "micropython-float32", "micropython-reprc", "circuitpython")."""
+    """A running device: kind "cpython" (in-process), an interpreter's name on the simulation
+    HAL ("micropython", "micropython-float32", "micropython-reprc", "circuitpython"), or
+    "board:NAME", the board's own HAL on stand-ins in interpreter NAME."""
     os.makedirs(root, exist_ok=True)
     if kind == "cpython":
         return InProcessDevice(world, root, **kw)
+    if kind.startswith("board:"):
+        return BoardDevice(world, root, interpreter=kind[6:], **kw)
     return MicroPythonDevice(world, root, interpreter=kind, **kw)

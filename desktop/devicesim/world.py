@@ -101,8 +101,9 @@ class World:
 
     # ****** link methods (sim_link.PipeLink's, in-process) ******
     def xfer(self, chip, wbuf, rbuf, n):
+        """One SPI transaction: CS of `chip` low (every CS high for wire.NO_CHIP), n bytes, CS high."""
         data = bytes(n) if wbuf is None else bytes(wbuf[:n])
-        self.bus.select(chip)
+        self.bus.select(None if chip == wire.NO_CHIP else chip)
         rx = self.bus.transfer(data)
         self.bus.select(None)
         self.xfers += 1
@@ -129,20 +130,20 @@ class World:
         self._advance(us / 1e6)
         self._sync_time()
 
-    def idle(self, max_us=0):
+    def idle(self, max_us=0, advance=True):
         """Advance to the next DRDY edge of chip 0 (or the next scripted event, or the budget).
 
         max_us > 0: a charged main-loop stall in IRQ mode (hal_sim.Board.busy):
         return at the next DRDY or after max_us, whatever the run budget says,
         since the firmware is busy and sees neither the button nor the budget.
         """
-        if not max_us and self.on_due is not None and self.time >= self.until and not self.quit:
+        if advance and not max_us and self.on_due is not None and self.time >= self.until and not self.quit:
             self.on_due()           # the run's time is up: the runner parks the firmware here
         self.idles += 1
         t = self.time
         limit = t + max_us / 1e6 if max_us else self._next_event(t)
         flags = 0
-        if limit > t:
+        if advance and limit > t:
             c0 = self.chips[0]
             if self.start_level and c0._next_drdy is not None:
                 try:
@@ -155,6 +156,8 @@ class World:
         if falls != self._falls:   # edge-triggered, like Pin.irq(IRQ_FALLING)
             self._falls = falls
             flags |= wire.F_DRDY
+        if not self.chips[0].drdy:
+            flags |= wire.F_DRDY_LOW
         if self._button_level():
             flags |= wire.F_BUTTON
         self._pump_serial()
@@ -165,6 +168,18 @@ class World:
         self.flags = flags
         self.pending = min(len(self._rx), 0xFFFF)
         self._sync_time()
+
+    def poll(self, max_us):
+        """A pin read that takes time (OP_POLL): nothing passes while chip 0's DRDY is low,
+        else time runs until it falls or max_us passed."""
+        if self.chips[0].drdy and self.start_level:
+            try:
+                self.bus.wait_drdy(0, timeout=max_us / 1e6)
+            except TimeoutError:
+                pass
+        elif self.chips[0].drdy:
+            self._advance(max_us / 1e6)
+        self.idle(0, advance=False)
 
     def stall(self, us, advance):
         """A charged main-loop stall starts (hal_sim.Board.busy); advance: polled, let it pass."""

@@ -1,0 +1,50 @@
+# Stand-in for CircuitPython's `usb_cdc` module, from docs.circuitpython.org shared-bindings/usb_cdc:
+# enable(*, console=True, data=False) may only be called in boot.py; usb_cdc.data is a Serial
+# (in_waiting, read, write, reset_input_buffer) when boot.py enabled it, else None. Both ports
+# are the process's stdin/stdout here. Not a module of the desktop package.
+import select
+import sys
+
+import simboard
+
+_board = simboard.board()
+console = None
+data = None
+
+
+class Serial:
+    def __init__(self):
+        self._poll = select.poll()
+        self._poll.register(sys.stdin, select.POLLIN)
+        self._rx = bytearray()     # arrived, not yet read
+        self.timeout = 1.0
+
+    def _fill(self):
+        while self._poll.poll(0):
+            self._rx += sys.stdin.buffer.read(1)
+
+    @property
+    def in_waiting(self):
+        self._fill()
+        return len(self._rx)
+
+    def read(self, size=1):
+        self._fill()
+        out = bytes(self._rx[:size])
+        self._rx = self._rx[size:]
+        return out
+
+    def write(self, buf):
+        sys.stdout.buffer.write(buf)
+        return len(buf)
+
+    def reset_input_buffer(self):
+        self._fill()
+        self._rx = bytearray()
+
+
+def enable(*, console=True, data=False):
+    if _board.phase != "boot":
+        raise RuntimeError("Cannot change USB devices now")
+    globals()["console"] = Serial() if console else None
+    globals()["data"] = Serial() if data else None
