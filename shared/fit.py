@@ -23,14 +23,49 @@ fitted with ``solve(scale=lsb)`` and mapped back with
 """
 
 from shared import solver
-from shared.moments import COUNT
+from shared.moments import COUNT, bit_length
 
 FitError = solver.FitError
 
+try:
+    import micropython  # noqa: F401  (MicroPython, CircuitPython)
+    _STRICT = False
+except ImportError:
+    _STRICT = True
+_INTS = "EllipsoidFit takes integers (quantise floats first)"
+
+# Pending samples ride in eight packed integers (Kronecker substitution): slot j of
+# a pack, bits [j*k, (j+1)*k), holds the running sum of one monomial, and each
+# pack is a run of shared.moments.ORDER: (first storage index, slots).
+_PACKS = ((1, 3), (4, 6), (10, 6), (16, 4), (20, 6), (26, 4), (30, 4), (34, 1))
+# Samples a pack holds before it is unpacked into the exact sums. With inputs
+# |v| <= 2**L, a slot's sum stays under _FLUSH * 2**(4L) = 2**(4L + 8) in
+# magnitude, inside the balanced range of k = 4L + 10 bits.
+_FLUSH = 256
+_SPARE = 10
+
 
 class EllipsoidFit:
+    """The 35 power sums of the samples, exact.
+
+    A sample's 34 monomials are built and summed in packed integers, 30
+    big-integer operations instead of 75: on a microcontroller each one is a
+    heap allocation, and their count, not the arithmetic, sets the cost
+    (docs/firmware.md, instruction counts). The packs are unpacked into the
+    plain sums every _FLUSH samples, before any read of the sums, and before a
+    sample too large for the slot width; every result is the same integer as
+    summing monomial by monomial.
+    """
+
     def __init__(self):
         self._s = [0] * COUNT
+        self._add = [0] * len(_PACKS)     # packs of added samples
+        self._sub = [0] * len(_PACKS)     # packs of removed samples
+        self._k = 0                       # slot width (bits); 0: no packs yet
+        self._bits = 20                   # input bits the slots are sized for
+        self._bias = 0                    # inputs in [-bias, bias) fit the slots:
+        self._span = 0                    #   0 <= (v + bias) < span = 2 * bias
+        self._room = 0                    # samples the packs take before unpacking
 
     @property
     def n(self):
@@ -39,77 +74,84 @@ class EllipsoidFit:
 
     def sums(self):
         """A copy of the 35 power sums (shared.moments.ORDER)."""
+        self._unpack()
         return list(self._s)
 
-    def add(self, x, y, z):
-        if not (isinstance(x, int) and isinstance(y, int) and isinstance(z, int)):
-            raise TypeError("EllipsoidFit.add takes integers (quantise floats first)")
-        self._accumulate(x, y, z, 1)
+    def add(self, x, y, z, _out=False):
+        # MicroPython and CircuitPython have no int-like types but bool: the slot check's `|`
+        # rejects the rest (floats) for free. CPython's numpy integers would pass it and
+        # overflow in the shifts, so there the type is checked (an isinstance costs ~600
+        # instructions per argument on a Cortex-M).
+        if _STRICT and not (isinstance(x, int) and isinstance(y, int) and isinstance(z, int)):
+            raise TypeError(_INTS)
+        b = self._bias
+        try:
+            g = (x + b) | (y + b) | (z + b)
+        except TypeError:
+            raise TypeError(_INTS)
+        self._room -= 1
+        if self._room < 0 or not 0 <= g < self._span:
+            self._unpack(x, y, z)
+        if _out:
+            self._s[0] -= 1
+            p = self._sub
+        else:
+            self._s[0] += 1
+            p = self._add
+        k = self._k
+        # [y, z], [x, y, z]; [yy, yz, zz], [xx, xy, xz, yy, yz, zz]: each pack is a
+        # small int times a pack plus a shifted pack, so no product is bigger than needed
+        w = y + (z << k)
+        v = x + (w << k)
+        zz = z * z
+        r = y * w + (zz << 2 * k)
+        q = x * v + (r << 3 * k)
+        c = x * q                         # xxx xxy xxz xyy xyz xzz
+        zzz = z * zz
+        t = y * r + (zzz << 3 * k)        # yyy yyz yzz zzz
+        p[0] += v
+        p[1] += q
+        p[2] += c
+        p[3] += t
+        p[4] += x * c                     # x^4 .. xxzz
+        p[5] += x * t                     # xyyy xyyz xyzz xzzz
+        p[6] += y * t                     # y^4 .. yzzz
+        p[7] += z * zzz
 
     def remove(self, x, y, z):
-        if not (isinstance(x, int) and isinstance(y, int) and isinstance(z, int)):
-            raise TypeError("EllipsoidFit.remove takes integers")
         if self._s[0] < 1:
             raise ValueError("remove from an empty fit")
-        self._accumulate(x, y, z, -1)
+        self.add(x, y, z, True)
 
-    def _accumulate(self, x, y, z, w):
-        # w = +1 adds the sample, -1 removes it. Unrolled in
-        # shared.moments.ORDER (degree, then x-power, then y-power descending);
-        # the weight enters once, through the weighted quadratics.
-        wx = w * x
-        wy = w * y
-        wz = w * z
-        wxx = wx * x
-        wxy = wx * y
-        wxz = wx * z
-        wyy = wy * y
-        wyz = wy * z
-        wzz = wz * z
-        xx = x * x
-        xy = x * y
-        xz = x * z
-        yy = y * y
-        yz = y * z
-        zz = z * z
-        s = self._s
-        s[0] += w
-        s[1] += wx
-        s[2] += wy
-        s[3] += wz
-        s[4] += wxx
-        s[5] += wxy
-        s[6] += wxz
-        s[7] += wyy
-        s[8] += wyz
-        s[9] += wzz
-        s[10] += wxx * x
-        s[11] += wxx * y
-        s[12] += wxx * z
-        s[13] += wxy * y
-        s[14] += wxy * z
-        s[15] += wxz * z
-        s[16] += wyy * y
-        s[17] += wyy * z
-        s[18] += wyz * z
-        s[19] += wzz * z
-        s[20] += wxx * xx
-        s[21] += wxx * xy
-        s[22] += wxx * xz
-        s[23] += wxx * yy
-        s[24] += wxx * yz
-        s[25] += wxx * zz
-        s[26] += wxy * yy
-        s[27] += wxy * yz
-        s[28] += wxy * zz
-        s[29] += wxz * zz
-        s[30] += wyy * yy
-        s[31] += wyy * yz
-        s[32] += wyy * zz
-        s[33] += wyz * zz
-        s[34] += wzz * zz
+    def _unpack(self, x=0, y=0, z=0):
+        """Add the packs into the sums; then size the slots for inputs up to the
+        largest of |x|, |y|, |z| with a bit of headroom (never narrower than before)."""
+        k = self._k
+        if k:
+            s = self._s
+            full = 1 << k
+            half = full >> 1
+            mask = full - 1
+            for packs, sign in ((self._add, 1), (self._sub, -1)):
+                for (first, count), a in zip(_PACKS, packs):
+                    for i in range(first, first + count):
+                        v = a & mask      # the slot, balanced: in [-half, half)
+                        if v >= half:
+                            v -= full
+                        s[i] += sign * v
+                        a = (a - v) >> k
+                for j in range(len(packs)):
+                    packs[j] = 0
+        bits = max(bit_length(x) + 1, bit_length(y) + 1, bit_length(z) + 1, self._bits)
+        self._bits = bits
+        self._bias = 1 << bits
+        self._span = 2 << bits
+        self._k = 4 * bits + _SPARE
+        self._room = _FLUSH
 
     def merge(self, other):
+        self._unpack()
+        other._unpack()
         s = self._s
         o = other._s
         for k in range(COUNT):
@@ -137,4 +179,5 @@ class EllipsoidFit:
         rotation of the frame). Raises FitError with .reason in
         too_few_samples, degenerate_coverage, not_ellipsoid, non_finite.
         """
+        self._unpack()
         return solver.solve(self._s, field, prior, num, scale, shape_sigma, min_samples, max_iter, max_error)

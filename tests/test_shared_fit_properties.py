@@ -13,6 +13,7 @@ from desktop.sim.points import directions
 from desktop.sim.sensor import Sensor
 from shared.calibration import Calibration
 from shared.fit import EllipsoidFit, FitError
+from shared.moments import ORDER
 from shared.quadric import FRAC
 from tests.scenarios import FIELD, LSB, scenario
 
@@ -38,6 +39,46 @@ def test_add_is_order_independent_and_merge_and_remove_are_exact(points, cut, se
     whole.add(*extra)
     whole.remove(*extra)
     assert whole.sums() == a.sums()
+
+
+def naive_sums(points):
+    """The 35 power sums, monomial by monomial (shared.moments.ORDER)."""
+    return [sum(x ** i * y ** j * z ** k * w for x, y, z, w in points) for i, j, k in ORDER]
+
+
+# magnitudes that cross the fit's slot widths: small, the ADC's 24-bit codes and their
+# boxcar sums, far beyond (a packed slot too narrow for them corrupts its neighbours)
+magnitude = st.sampled_from([0, 1, 2**10, 2**20, 2**21, 2**25, 2**31, 2**62])
+coordinate = st.builds(lambda m, f, neg: -(m + f) if neg else m + f, magnitude, st.integers(0, 2**10), st.booleans())
+
+
+@settings(max_examples=40, deadline=None)
+@given(points=st.lists(st.tuples(coordinate, coordinate, coordinate, st.sampled_from([1, 1, 1, -1])),
+                       min_size=1, max_size=700))
+def test_sums_are_the_monomials_summed_one_by_one(points):
+    """Samples pass through packed integers (shared/fit.py); the sums must be the plain ones
+    whatever the magnitudes, their order and the flushes (every 256 samples) in between."""
+    fit = EllipsoidFit()
+    kept = []
+    for x, y, z, w in points:
+        if w < 0 and kept:
+            fit.remove(*kept.pop())
+        else:
+            fit.add(x, y, z)
+            kept.append((x, y, z))
+    assert fit.n == len(kept)
+    assert fit.sums() == naive_sums([p + (1,) for p in kept])
+
+
+def test_slots_hold_a_full_pack_of_inputs_at_the_width_limit():
+    """256 samples at the edge the slot width admits (-2**21 after a first sample of 2**19
+    sizes it to 21 bits): every degree-4 slot then holds 2**92 in magnitude, one bit under its
+    balanced range; an off-by-one in the width or the bias fails here."""
+    fit = EllipsoidFit()
+    points = [(2**19, 0, 0)] + [(-2**21, -2**21, -2**21)] * 255 + [(2**21 - 1, -2**21, 2**21 - 1)] * 300
+    for p in points:
+        fit.add(*p)
+    assert fit.sums() == naive_sums([p + (1,) for p in points])
 
 
 def test_add_rejects_floats_and_remove_rejects_empty():

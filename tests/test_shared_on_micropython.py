@@ -124,3 +124,13 @@ def test_corrected_magnitude_is_cpythons_to_the_float_width(name, instrument, ro
     assert proc.returncode == 0, proc.stderr
     got = np.array([float(v) for v in json.loads(proc.stdout)["magnitude"]])
     assert np.max(np.abs(got - magnitudes(cal, codes.astype(float)))) <= 4 * float_eps(name) * field
+
+
+@pytest.mark.parametrize("name", INTERPRETERS)
+def test_interpreter_rejects_floats(name, root):
+    """On MicroPython the fit's slot check rejects non-integers (shared/fit.py: no isinstance
+    there); the sums must be untouched by the refused sample."""
+    code = ("import sys\nsys.path.insert(0, %r)\nfrom shared.fit import EllipsoidFit\nf = EllipsoidFit()\n"
+            "f.add(1, 2, 3)\ntry:\n    f.add(1.5, 2, 3)\nexcept TypeError:\n    print('TypeError', f.n, f.sums()[1])\n" % root)
+    proc = subprocess.run([need(name), "-c", code], capture_output=True, text=True, timeout=60)
+    assert proc.stdout.split() == ["TypeError", "1", "1"], proc.stdout + proc.stderr
