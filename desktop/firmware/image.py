@@ -34,7 +34,9 @@ def build_image(dest, runtime="sim", mpy_cross=None, compiled=True):
     for src, target in firmware_files(runtime):
         out = os.path.join(dest, target[:-3] + ".mpy")
         os.makedirs(os.path.dirname(out), exist_ok=True)
-        r = subprocess.run([exe, "-O1", "-o", out, src], capture_output=True, text=True)
+        # -s: the source name a traceback shows is the board path, not this checkout's absolute
+        # path (which would also cost heap: the .mpy keeps it)
+        r = subprocess.run([exe, "-O1", "-s", target, "-o", out, src], capture_output=True, text=True)
         if r.returncode:
             raise RuntimeError("mpy-cross %s: %s" % (src, r.stderr.strip()))
     return dest

@@ -1,9 +1,10 @@
 # MicroPython script, run by desktop/bench/device.py in the `micropython` executable
 # (data for that benchmark, not a module of the desktop package).
 # Measures the firmware's own code paths without the simulator link: a loop-back
-# board answers register access from a 12-byte register file and DRDY reads from a
-# table of real frames (a hand-rotation capture encoded by the host), so the
-# timings are the driver, ring, decimator, gates, fit and survey only.
+# board (loopboard.py, found next to this script: micropython puts a script's folder first on
+# sys.path) answers register access from a 12-byte register file and DRDY reads from a table of
+# real frames (a hand-rotation capture encoded by the host, read into RAM through io.BytesIO),
+# so the timings are the driver, ring, decimator, gates, fit and survey only.
 # argv: frames_file root rate decim window seconds hour(0/1) scale (nT/code). Heap figures exclude
 # the frame table (harness data, loaded before the firmware; 256 KB on top of it).
 # SPI reads are two C calls (seek, readinto) like machine.SPI.readinto between
@@ -20,7 +21,8 @@ import io
 import sys
 import time
 
-FRAME = 9
+from loopboard import LoopBoard
+
 BLOCKS = 5
 
 
@@ -53,98 +55,6 @@ class Sched:
 
 
 SCHED = [None]
-
-
-class LoopBoard:
-    REG_BAUD = 1000000
-    DATA_BAUD = 8000000
-
-    def __init__(self, frames, root, rate):
-        self.nf = len(frames) // (2 * FRAME)
-        self.src = io.BytesIO(frames)
-        self._seek = self.src.seek
-        self._readinto = self.src.readinto
-        self._cs = (abs, abs)   # stands in for the CS Pin calls of hal_micropython
-        self.k = 0
-        self.root = root
-        self.name = "bench-loopback"
-        self.regs = [bytearray(b"\x53\x02\x80\x10\x00\x00\x00\x00\x00\x00\x02\x0c") for _ in range(2)]
-        self.t_us = 0
-        self.dt = 1000000 // rate
-        self.handler = None
-        self.pressed = False
-
-    def set_spi_rate(self, hz):
-        pass
-
-    def spi_write(self, chip, buf, n):
-        op = buf[0]
-        if op & 0xE0 == 0x40:
-            self.regs[chip][op & 0x1F] = buf[2]
-
-    def spi_write_readinto(self, chip, w, r, n):
-        if w[0] & 0xE0 == 0x20:
-            r[2] = self.regs[chip][w[0] & 0x1F]
-
-    def spi_readinto(self, chip, buf):
-        cs = self._cs[chip]
-        cs(0)
-        self._readinto(buf)
-        cs(1)
-
-    def set_start(self, v):
-        pass
-
-    def set_reset(self, v):
-        pass
-
-    def led(self, on):
-        pass
-
-    def button(self):
-        return self.pressed
-
-    def attach_drdy(self, h, rate=0, on_gap=None):
-        self.handler = h
-
-    def busy(self, what, n=1):
-        pass   # the bench measures the real cost instead of charging a model
-
-    def ticks_ms(self):
-        return (self.t_us // 1000) & 0x3FFFFFFF
-
-    def ticks_diff(self, a, b):
-        return ((a - b + 0x20000000) & 0x3FFFFFFF) - 0x20000000
-
-    def sleep_us(self, us):
-        self.t_us += us
-
-    def sleep_ms(self, ms):
-        self.t_us += 1000 * ms
-
-    def time(self):
-        return None
-
-    def quit_requested(self):
-        return False
-
-    def idle(self):
-        self.t_us += self.dt
-        k = self.k + 1
-        if k == self.nf:
-            k = 0
-        self.k = k
-        self._seek(k * 18)
-        if self.handler is not None:
-            self.handler(None)
-
-    def serial_read(self):
-        return None
-
-    def serial_write(self, data):
-        pass
-
-
 BASE = [0]
 
 
@@ -160,14 +70,13 @@ def median(v):
     return v[m] if len(v) % 2 else (v[m - 1] + v[m]) / 2
 
 
-def per_frame(board, n):
-    """us per DRDY edge: n idles (harness + handler), the median of BLOCKS blocks of n // BLOCKS."""
+def per_frame(loop, n):
+    """us per DRDY edge of loop(m): the median of BLOCKS blocks of m = n // BLOCKS frames."""
     m = n // BLOCKS
     wall = []
     for _ in range(BLOCKS):
         t0 = time.ticks_us()
-        for _ in range(m):
-            board.idle()
+        loop(m)
         wall.append(time.ticks_diff(time.ticks_us(), t0) / m)
     return median(wall)
 
@@ -175,15 +84,11 @@ def per_frame(board, n):
 def run_loop(app, board, frames, cpu=None):
     """The real main loop (App.step + App.wait) over `frames` DRDY edges; returns wall us.
     If `cpu` is a list, (process CPU us, run-queue wait us) over the loop is appended to it."""
-    k0 = board.t_us
-    end = k0 + frames * board.dt
     sched = SCHED[0]
     w0 = sched.wait_ns()
     c0 = time.clock()
     t0 = time.ticks_us()
-    while board.t_us < end:
-        app.step()
-        app.wait()
+    board.run(app, frames)
     dt = time.ticks_diff(time.ticks_us(), t0)
     c1 = time.clock()
     w1 = sched.wait_ns()
@@ -207,36 +112,16 @@ def main():
     out = {}
     store.save(root, "config", {"rate": rate, "decim": decim, "window": window, "scale_x": scale,
                                 "scale_y": scale, "scale_z": scale, "auto_finish": False})
-    board = LoopBoard(frames, root, rate)
+    board = LoopBoard(io.BytesIO(frames), root, rate)
     app = appmod.App(board)
     out["heap_boot"] = heap()
     acq = app.acq
 
-    def nop(a, b, c, d):
-        pass
     # DRDY handler cost by kind of frame, minus the harness's own idle()
-    n = 20000
-    h = board.handler
-    board.handler = None
-    harness = per_frame(board, n)
-    board.handler = h
-    acq.set_decimation(1000, 1)
-    out["us_isr_skip"] = per_frame(board, n) - harness          # not in the window: counter only
-    acq.set_decimation(64, 64)
-    out["us_isr_read"] = per_frame(board, n) - harness          # read, parse, sum (no push)
-    acq.set_decimation(1, 1)
-    m = n // BLOCKS
-    push = []
-    for _ in range(BLOCKS):
-        t0 = time.ticks_us()
-        for i in range(m):
-            board.idle()
-            if i & 31 == 31:
-                acq.poll(nop, 64)
-        push.append(time.ticks_diff(time.ticks_us(), t0) / m)
-    acq.poll(nop, 64)
-    # read + push + pop from the ring (the decimator's share per sample)
-    out["us_isr_push"] = median(push) - harness - out["us_isr_read"]
+    harness, skip, read, push = board.handler_costs(acq, per_frame, 20000)
+    out["us_isr_skip"] = skip       # not in the window: counter only
+    out["us_isr_read"] = read       # read, parse, sum (no push)
+    out["us_isr_push"] = push       # read + push + pop from the ring (the decimator's share per sample)
     out["us_harness"] = harness
 
     def record(name, dt, cpu):

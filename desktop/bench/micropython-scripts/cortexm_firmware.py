@@ -1,0 +1,150 @@
+# MicroPython script for the bare-metal Cortex-M3 board (desktop/bench/cortexm.py imports it
+# there from the board's ROM filesystem and calls main()): instruction counts of the
+# firmware's paths. A ticks_us difference x 1000 is an instruction count (qemu -icount
+# shift=0). The firmware's App runs on a LoopBoard (loopboard.py) whose frames, a simulated
+# hand rotation, come from a file in the ROM filesystem (out of the heap); the board's
+# flash folder (config) is in the ROM too, so nothing here writes: the calibration is
+# finished without storing it and installed by hand for the survey.
+# Every count of a loop has the harness's own per-frame work (LoopBoard.idle without a
+# handler) subtracted.
+import gc
+import json
+import time
+from array import array
+
+from loopboard import LoopBoard
+
+
+def count(t0, t1):
+    return time.ticks_diff(t1, t0) * 1000
+
+
+def per_frame(loop, n):
+    t0 = time.ticks_us()
+    loop(n)
+    return count(t0, time.ticks_us()) // n
+
+
+def loop(app, board, frames, harness):
+    """Instructions of the real main loop (App.step + App.wait) over `frames` DRDY edges."""
+    t0 = time.ticks_us()
+    board.run(app, frames)
+    return count(t0, time.ticks_us()) - frames * harness
+
+
+def record(app, board, n):
+    """n decimated samples (boxcar sums) as the DRDY handler delivers them, for the replays."""
+    buf = array("i", bytes(12 * n))
+    got = [0]
+
+    def keep(sx, sy, sz, st):
+        i = got[0]
+        if i < n:
+            buf[3 * i] = sx
+            buf[3 * i + 1] = sy
+            buf[3 * i + 2] = sz
+            got[0] = i + 1
+    while got[0] < n:
+        board.idle()
+        app.acq.poll(keep, 64)
+    return buf
+
+
+def replay(session, samples, n):
+    t0 = time.ticks_us()
+    for i in range(0, 3 * n, 3):
+        session.sample(samples[i], samples[i + 1], samples[i + 2])
+    return count(t0, time.ticks_us())
+
+
+def main(frames_path, root, rate, seconds, replay_n=1200):
+    import app as appmod
+    import calibrate
+    board = LoopBoard(open(frames_path, "rb"), root, rate)
+    app = appmod.App(board)
+    cfg = app.cfg
+    out = {"rate": rate, "decim": cfg["decim"], "window": cfg["window"], "seconds": seconds}
+    acq = app.acq
+
+    harness, skip, read, push = board.handler_costs(acq, per_frame, 2000)
+    out["harness"] = harness
+    out["isr_skip"] = skip
+    out["isr_read"] = read
+    out["isr_push_pop"] = push
+    app._setup_pipeline()
+
+    # the gates and the fit, replayed on recorded samples: once as they run, once with
+    # EllipsoidFit.add replaced by an empty function (the gates' decisions do not depend on it
+    # without a provisional fit, and the replay has none)
+    samples = record(app, board, replay_n)
+    period_ms = 1000.0 * cfg["decim"] / cfg["rate"]
+    full = calibrate.Session(cfg, app.scale, cfg["window"], period_ms)
+    gc.collect()
+    t_full = replay(full, samples, replay_n)
+    gates = calibrate.Session(cfg, app.scale, cfg["window"], period_ms)
+
+    def no_add(x, y, z):
+        pass
+    gates.fit.add = no_add
+    gc.collect()
+    t_gates = replay(gates, samples, replay_n)
+    t0 = time.ticks_us()
+    for i in range(replay_n):
+        no_add(i, i, i)
+    t_call = count(t0, time.ticks_us()) // replay_n
+    accepted = full.fit.n
+    from shared.fit import EllipsoidFit
+    fit = EllipsoidFit()
+    gc.collect()
+    out["heap_free_replay"] = gc.mem_free()
+    t0 = time.ticks_us()
+    for i in range(0, 3 * replay_n, 3):
+        fit.add(samples[i], samples[i + 1], samples[i + 2])
+    out["add_direct"] = count(t0, time.ticks_us()) // replay_n
+    fit = None
+    out["replay_samples"] = replay_n
+    out["replay_accepted"] = accepted
+    out["gates_per_sample"] = (t_gates - accepted * t_call) // replay_n
+    out["add_per_accepted"] = (t_full - t_gates) // max(1, accepted) + t_call
+    one = (samples[0], samples[1], samples[2])
+    samples = None
+    gc.collect()
+    t0 = time.ticks_us()
+    cal = full._solve()
+    out["solve"] = count(t0, time.ticks_us())
+    out["solve_iterations"] = cal.diagnostics["iterations"]
+    full = gates = None
+
+    # the whole calibrating firmware: the real main loop, provisional solves included
+    app.start_session()
+    s = app.session
+    frames = seconds * rate
+    gc.collect()
+    out["calibrating_per_s"] = loop(app, board, frames, harness) // seconds
+    out["cal_seen"] = s.seen
+    out["cal_accepted"] = s.fit.n
+    code_cal, reason, msg = s.finish()
+    out["cal_state"] = s.state
+    app.session = None
+    if code_cal is None:
+        out["cal_reason"] = reason
+        print(json.dumps(out))
+        return
+    # survey, streaming corrected blocks (the flash is read-only here: no log)
+    app.cal = code_cal
+    app.stream = "corrected"
+    app._setup_pipeline()
+    gc.collect()
+    out["survey_per_s"] = loop(app, board, frames, harness) // seconds
+    # one output block: correct, format the data event, hand it to the serial line
+    blk = None
+    while blk is None:
+        blk = app.survey.sample(one[0], one[1], one[2], 0, 48000.0)
+    t0 = time.ticks_us()
+    for _ in range(20):
+        app._output(blk)
+    out["output_per_block"] = count(t0, time.ticks_us()) // 20
+    out["blocks_per_s"] = cfg["survey_hz"]
+    out["survey_blocks"] = app.survey.blocks
+    out["heap_free"] = gc.mem_free()
+    print(json.dumps(out))
