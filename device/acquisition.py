@@ -55,8 +55,10 @@ _STATUS_SYNC = const(0xC0)   # frame header nibble 1100 [DS §8.5.1.5]
 # Ring slots: x, y, z, temperature boxcar sums, block number
 SLOTS = const(5)
 # State array indices (an array, so the ISR writes without allocating)
-_HEAD = const(0)
-_TAIL = const(1)
+# The ring's head (next slot the handler fills) and tail (next the reader takes): equal when
+# empty; App.wait compares them itself on each wake-up, cheaper than a call to available().
+HEAD = const(0)
+TAIL = const(1)
 OVERFLOW = const(2)   # decimated samples dropped because the ring was full
 FRAMES = const(3)     # DRDY edges seen (wraps at 2**30)
 BADSYNC = const(4)    # frames whose status header was not 1100 (their block is discarded)
@@ -199,11 +201,11 @@ class Acquisition:
             n = st[DISCARDED]
             st[DISCARDED] = n + 1 if n != _WRAP else 0
         else:
-            head = st[_HEAD]
+            head = st[HEAD]
             nxt = head + 1
             if nxt == self.ring_frames:
                 nxt = 0
-            if nxt == st[_TAIL]:
+            if nxt == st[TAIL]:
                 n = st[OVERFLOW]
                 st[OVERFLOW] = n + 1 if n != _WRAP else 0
             else:
@@ -214,7 +216,7 @@ class Acquisition:
                 r[i + 2] = a[2]
                 r[i + 3] = a[3]
                 r[i + 4] = blk
-                st[_HEAD] = nxt
+                st[HEAD] = nxt
         a[0] = 0
         a[1] = 0
         a[2] = 0
@@ -224,7 +226,7 @@ class Acquisition:
     def available(self):
         """Decimated samples waiting in the ring."""
         st = self.state
-        n = st[_HEAD] - st[_TAIL]
+        n = st[HEAD] - st[TAIL]
         return n + self.ring_frames if n < 0 else n
 
     def poll(self, on_sample, limit=16, on_gap=None):
@@ -237,8 +239,8 @@ class Acquisition:
         ring = self.ring
         n = 0
         while n < limit:
-            t = st[_TAIL]
-            if t == st[_HEAD]:
+            t = st[TAIL]
+            if t == st[HEAD]:
                 break
             j = t * SLOTS
             sx = ring[j]
@@ -247,7 +249,7 @@ class Acquisition:
             stc = ring[j + 3]
             blk = ring[j + 4]
             t += 1
-            st[_TAIL] = 0 if t == self.ring_frames else t   # slot free: the ISR may reuse it
+            st[TAIL] = 0 if t == self.ring_frames else t   # slot free: the ISR may reuse it
             if self._last >= 0 and blk != (self._last + 1 if self._last != _WRAP else 0):
                 self.gaps += 1
                 if on_gap is not None:

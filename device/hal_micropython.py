@@ -46,6 +46,8 @@ class Board(hal.Board):
             self._poll = select.poll()
             self._poll.register(sys.stdin, select.POLLIN)
         self._rbuf = bytearray(64)
+        # App.wait calls idle() on every conversion: the C function itself, not a method around it
+        self.idle = machine.idle
         try:
             micropython.kbd_intr(-1)
         except AttributeError:

@@ -25,6 +25,7 @@ except ImportError:  # pragma: no cover - every target runtime has array
     array = None
 
 TAN_BITS = 12
+_ONE = 1 << TAN_BITS
 
 
 class Coverage:
@@ -35,35 +36,48 @@ class Coverage:
         self.n_cells = 6 * cells_per_edge * cells_per_edge
         self.cap = cap
         # Interior cut points tan(-45 + 90 k / n degrees), k = 1..n-1, fixed point.
-        one = 1 << TAN_BITS
-        self._cuts = [int(round(math.tan(math.radians(-45.0 + 90.0 * k / cells_per_edge)) * one))
+        self._cuts = [int(round(math.tan(math.radians(-45.0 + 90.0 * k / cells_per_edge)) * _ONE))
                       for k in range(1, cells_per_edge)]
         self.counts = array("H", [0] * self.n_cells) if array else [0] * self.n_cells
 
     def cell(self, dx, dy, dz):
-        """Index of the cell holding direction (dx, dy, dz); any scale, any sign."""
-        ax = abs(dx)
-        ay = abs(dy)
-        az = abs(dz)
+        """Index of the cell holding direction (dx, dy, dz); any scale, any sign.
+
+        Runs once per calibration sample on the device: no calls, no tuples (a
+        method call costs ~1k instructions on a Cortex-M, docs/firmware.md)."""
+        ax = dx if dx >= 0 else -dx
+        ay = dy if dy >= 0 else -dy
+        az = dz if dz >= 0 else -dz
         if ax >= ay and ax >= az:
-            face, major, p, q = (0 if dx >= 0 else 1), ax, dy, dz
+            face = 0 if dx >= 0 else 1
+            major = ax
+            p = dy
+            q = dz
         elif ay >= az:
-            face, major, p, q = (2 if dy >= 0 else 3), ay, dx, dz
+            face = 2 if dy >= 0 else 3
+            major = ay
+            p = dx
+            q = dz
         else:
-            face, major, p, q = (4 if dz >= 0 else 5), az, dx, dy
+            face = 4 if dz >= 0 else 5
+            major = az
+            p = dx
+            q = dy
         if major == 0:
             raise ValueError("zero direction has no cell")
-        return (face * self.edge + self._bin(p, major)) * self.edge + self._bin(q, major)
-
-    def _bin(self, p, major):
-        # p / major compared with the cut tan values, without dividing.
-        scaled = p << TAN_BITS if isinstance(p, int) else p * (1 << TAN_BITS)
-        k = 0
+        # p / major and q / major against the cut tangents, without dividing: the bin is
+        # the number of cuts at or below the ratio (the cuts ascend)
+        p = p * _ONE
+        q = q * _ONE
+        i = j = 0
         for cut in self._cuts:
-            if scaled < cut * major:
-                break
-            k += 1
-        return k
+            c = cut * major
+            if p >= c:
+                i += 1
+            if q >= c:
+                j += 1
+        e = self.edge
+        return (face * e + i) * e + j
 
     def count(self, cell):
         """Samples counted in `cell`."""

@@ -55,11 +55,11 @@ class Spy:
             self.miscounted += 1
         self.gaps.append((conv, self.pending)) if self.pending else None
         self.last, self.pending = conv, 0
-        phase, head, blocks = st[acquisition._PHASE], st[acquisition._HEAD], st[acquisition.BLOCKS]
+        phase, head, blocks = st[acquisition._PHASE], st[acquisition.HEAD], st[acquisition.BLOCKS]
         acq.isr(pin)
         if phase >= acq._first:
             self.reads.append(conv)
-        if st[acquisition._HEAD] != head:
+        if st[acquisition.HEAD] != head:
             self.pushed += 1
             r = self.reads
             if len(r) != acq.window or r[-1] - r[0] != acq.window - 1:
