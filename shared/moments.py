@@ -26,39 +26,53 @@ COUNT = len(ORDER)  # 35
 _BINOM = ((1,), (1, 1), (1, 2, 1), (1, 3, 3, 1), (1, 4, 6, 4, 1))
 
 
+def _axis_sources(axis):
+    """For each storage index n (exponents e), the storage indices of e with its `axis`
+    exponent set to 0, 1, ..., e[axis], five bytes per n (a bytes object: one heap block,
+    where a table of tuples would be hundreds of objects for every collection to mark)."""
+    out = bytearray(5 * COUNT)
+    for n, e in enumerate(ORDER):
+        for t in range(e[axis] + 1):
+            src = [e[0], e[1], e[2]]
+            src[axis] = t
+            out[5 * n + t] = INDEX[(src[0], src[1], src[2])]
+    return bytes(out)
+
+
+_SOURCES = [_axis_sources(_a) for _a in range(3)]
+
+
 def shifted(sums, scale, centre):
     """Power sums of (scale*h - centre) from the power sums of h, exactly.
 
     sums: list of COUNT ints (storage order); scale: int; centre: 3 ints.
-    Each factor expands as (s*x - c)^i = sum_t C(i,t) s^t x^t (-c)^(i-t).
+    (s*x - c)^i = sum_t C(i,t) s^t x^t (-c)^(i-t) shifts one axis at a time, x
+    then y then z: 210 products in all, their coefficients made once per axis
+    (the solver calls this per trial state; on a Cortex-M each big-integer
+    product is a heap allocation, docs/firmware.md).
     """
-    powers = []
-    for c in centre:
-        p = [1]
+    s = sums
+    for axis in range(3):
+        c = centre[axis]
+        if c == 0 and scale == 1:
+            continue
+        mc = [1]
+        sp = [1]
         for _ in range(4):
-            p.append(p[-1] * -c)
-        powers.append(p)
-    spow = [1]
-    for _ in range(4):
-        spow.append(spow[-1] * scale)
-    px, py, pz = powers
-    out = []
-    for i, j, k in ORDER:
-        bi = _BINOM[i]
-        bj = _BINOM[j]
-        bk = _BINOM[k]
-        total = 0
-        for t1 in range(i + 1):
-            for t2 in range(j + 1):
-                c12 = bi[t1] * bj[t2] * px[i - t1] * py[j - t2]
-                if c12 == 0:
-                    continue
-                for t3 in range(k + 1):
-                    coeff = c12 * bk[t3] * pz[k - t3]
-                    if coeff:
-                        total += coeff * spow[t1 + t2 + t3] * sums[INDEX[(t1, t2, t3)]]
-        out.append(total)
-    return out
+            mc.append(mc[-1] * -c)
+            sp.append(sp[-1] * scale)
+        coef = [[_BINOM[e][t] * sp[t] * mc[e - t] for t in range(e + 1)] for e in range(5)]
+        src = _SOURCES[axis]
+        out = []
+        for n in range(COUNT):
+            row = coef[ORDER[n][axis]]
+            base = 5 * n
+            total = 0
+            for t in range(len(row)):
+                total += row[t] * s[src[base + t]]
+            out.append(total)
+        s = out
+    return list(s) if s is sums else s
 
 
 def bit_length(x):

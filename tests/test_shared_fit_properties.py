@@ -13,7 +13,7 @@ from desktop.sim.points import directions
 from desktop.sim.sensor import Sensor
 from shared.calibration import Calibration
 from shared.fit import EllipsoidFit, FitError
-from shared.moments import ORDER
+from shared.moments import ORDER, shifted
 from shared.quadric import FRAC
 from tests.scenarios import FIELD, LSB, scenario
 
@@ -68,6 +68,16 @@ def test_sums_are_the_monomials_summed_one_by_one(points):
             kept.append((x, y, z))
     assert fit.n == len(kept)
     assert fit.sums() == naive_sums([p + (1,) for p in kept])
+
+
+@settings(max_examples=40, deadline=None)
+@given(points=triples, scale=st.sampled_from([1, 1, -3, 7, 2**40]),
+       centre=st.tuples(*[st.sampled_from([0, 1, -5, 2**20, -(2**45)])] * 3))
+def test_shifted_sums_are_the_sums_of_the_shifted_points(points, scale, centre):
+    """shared.moments.shifted (the solver's re-centring, one axis at a time) against the
+    power sums of the moved points themselves."""
+    moved = [(scale * x - centre[0], scale * y - centre[1], scale * z - centre[2], 1) for x, y, z in points]
+    assert shifted(naive_sums([p + (1,) for p in points]), scale, list(centre)) == naive_sums(moved)
 
 
 def test_slots_hold_a_full_pack_of_inputs_at_the_width_limit():
