@@ -55,8 +55,7 @@ _STATUS_SYNC = const(0xC0)   # frame header nibble 1100 [DS §8.5.1.5]
 # Ring slots: x, y, z, temperature boxcar sums, block number
 SLOTS = const(5)
 # State array indices (an array, so the ISR writes without allocating)
-# The ring's head (next slot the handler fills) and tail (next the reader takes): equal when
-# empty; App.wait compares them itself on each wake-up, cheaper than a call to available().
+# The ring's head (next slot the handler fills) and tail (next the reader takes): equal when empty
 HEAD = const(0)
 TAIL = const(1)
 OVERFLOW = const(2)   # decimated samples dropped because the ring was full

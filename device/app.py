@@ -4,10 +4,11 @@
 
 One cooperative main loop, no threads: drain the DRDY ring, feed each
 decimated sample to the calibration session and the survey averager, poll the
-button and the serial line, drive the LED, then idle until the next
-decimated sample (or _HOUSE_MS). The DRDY handler does the boxcar itself, so
-a pass runs per decimated sample, not per conversion: on an RP2040 a pass
-costs ~1 ms and conversions come every 0.5 ms at 2000 SPS (docs/firmware.md).
+button and the serial line, drive the LED, then idle for _HOUSE_MS. The DRDY
+handler does the boxcar itself and the ring holds 1.28 s of samples, so a pass
+runs every _HOUSE_MS whatever the rates: the button, serial and LED work of a
+pass (~35k instructions on a Cortex-M, docs/firmware.md) is paid 50 times a
+second, not once per sample.
 The serial commands are commands.py; every state a user can see is also in
 their `status`.
 """
@@ -17,7 +18,7 @@ import gc
 import commands
 import config as cfgmod
 import store
-from acquisition import HEAD, TAIL, Acquisition
+from acquisition import Acquisition
 from ads1292 import ADS1292Pair
 from button import Button, SHORT, LONG
 from led import Led
@@ -28,8 +29,8 @@ from shared.calibration import Calibration
 import calibrate
 
 FIRMWARE_VERSION = "0.1.0"
-_DRAIN = 16      # samples per loop pass: bounds the latency of button and serial
-_HOUSE_MS = 20   # button, serial and LED at least every 20 ms (debounce is 30 ms)
+_DRAIN = 16      # samples per loop pass at least (more when more arrive per pass)
+_HOUSE_MS = 20   # a pass every 20 ms: button (debounce is 30 ms), serial, LED, samples
 # board.busy keys: the main loop's work, charged as simulated time by hal_sim
 _SOLVE = "solve"
 _SAMPLE_CAL = "sample_cal"
@@ -55,6 +56,7 @@ class App:
         self.boot_ms = board.ticks_ms()
         self.quit = False
         self._sample_cb = self._on_sample  # bound once: no allocation per loop pass
+        self._diff = board.ticks_diff
         self._gap_cb = self._on_gap
         self._want_f = False
         self.cal_w = None
@@ -100,6 +102,8 @@ class App:
         self.acq.set_decimation(c["decim"], c["window"])
         self.sample_hz = c["rate"] / c["decim"]
         self._house_idles = max(1, c["rate"] * _HOUSE_MS // 1000)
+        # twice what a pass brings: a pass that ran late catches up in the next
+        self._drain = max(_DRAIN, 2 * (self._house_idles // c["decim"] + 1))
         self.survey = Survey(c, c["window"], self.sample_hz)
         self.scale = (c["scale_x"], c["scale_y"], c["scale_z"])
         if c["log"] and self.log is None:
@@ -114,7 +118,10 @@ class App:
     def _outputs(self):
         # |h_c| per sample is only needed when a block goes out (stream or log);
         # the calibration in sum units saves three divisions per sample
-        self._want_f = self.stream != "off" or self.log is not None
+        want = self.stream != "off" or self.log is not None
+        if want and not self._want_f:
+            self.survey.restart()   # the open block's samples carry no |h_c|: start a new one
+        self._want_f = want
         self.cal_w = self.cal.scaled_input(self.cfg["window"]) if self.cal is not None else None
 
     # ****** main loop ******
@@ -127,15 +134,14 @@ class App:
             self.log.close()
 
     def wait(self):
-        """Idle until a decimated sample is ready or _HOUSE_MS passed.
+        """Idle for _HOUSE_MS, counted in conversions.
 
         idle() returns after every DRDY (the IRQ wakes the core), so the loop
         counts DRDY periods instead of reading the clock. It runs once per
         conversion (2000 times a second at the default rate), so a wake-up costs
-        two array reads and the HAL's idle() (machine.idle itself on MicroPython),
-        no method calls: ~3k instructions less per conversion on a Cortex-M
-        (docs/firmware.md, instruction counts). A quit request (simulators) is
-        seen by run() within _HOUSE_MS.
+        one decrement and the HAL's idle() (machine.idle itself on MicroPython,
+        a poll of the DRDY pin on CircuitPython), nothing else. A quit request
+        (simulators) is seen by run() within _HOUSE_MS.
         """
         b = self.board
         if self.fault:   # no conversions to count: by the clock
@@ -146,18 +152,15 @@ class App:
                     return
             return
         n = self._house_idles
-        st = self.acq.state
         idle = b.idle
         while n > 0:
-            if st[HEAD] != st[TAIL]:
-                return
             idle()
             n -= 1
 
     def step(self):
         b = self.board
         if not self.fault:
-            n = self.acq.poll(self._sample_cb, _DRAIN, self._gap_cb)
+            n = self.acq.poll(self._sample_cb, self._drain, self._gap_cb)
             if n:
                 b.busy(_SAMPLE_CAL if self.session is not None else _SAMPLE, n)
         ev = self.button.poll()
@@ -176,7 +179,7 @@ class App:
         s = self.session
         if s is not None:
             now = b.ticks_ms()
-            solved = s.tick(now, b.ticks_diff)
+            solved = s.tick(now, self._diff)
             if solved:
                 b.busy(_SOLVE)
             if b.ticks_diff(now, self.last_progress) >= 1000:
@@ -187,7 +190,7 @@ class App:
                 self.led.set(ledp.ENOUGH)
                 if self.cfg["auto_finish"]:
                     self.finish_session()
-            elif s.timed_out(now, b.ticks_diff):
+            elif s.timed_out(now, self._diff):
                 self.finish_session()
         self.led.update()
 

@@ -20,6 +20,7 @@ class Led:
         self._pattern = UNCALIBRATED
         self._until = None      # a one-shot pattern reverts to base at this tick
         self._start = board.ticks_ms()
+        self._next = -1         # age (ms since _start) of the next change: nothing to do before it
 
     def set(self, pattern):
         """Change the steady pattern (a one-shot in progress finishes first)."""
@@ -28,6 +29,7 @@ class Led:
             if self._until is None:
                 self._pattern = pattern
                 self._start = self.board.ticks_ms()
+                self._next = -1
 
     def flash(self, pattern, ms=None):
         """Show a pattern once (or for ms), then return to the steady one."""
@@ -38,11 +40,15 @@ class Led:
         for d in pattern:
             total += d
         self._until = (ms if ms is not None else total) or 1
+        self._next = -1
 
     def update(self):
+        # every main-loop pass: return at once until the next change is due
         b = self.board
         now = b.ticks_ms()
         age = b.ticks_diff(now, self._start)
+        if age < self._next:
+            return
         if self._until is not None and age >= self._until:
             self._until = None
             self._pattern = self.base
@@ -54,9 +60,15 @@ class Led:
             period += d
         t = age % period if period else 0
         on = True
+        left = 0
         for d in p:
             if t < d:
+                left = d - t
                 break
             t -= d
             on = not on
+        nxt = age + left
+        if self._until is not None and self._until < nxt:
+            nxt = self._until
+        self._next = nxt
         b.led(on)

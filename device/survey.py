@@ -20,6 +20,10 @@ class Survey:
         self.window = window
         self.per_block = max(1, int(sample_hz / cfg["survey_hz"] + 0.5))
         self.blocks = 0
+        self.restart()
+
+    def restart(self):
+        """Drop the open block (its samples were taken without |h_c|)."""
         self._n = 0
         self._sx = self._sy = self._sz = self._st = 0
         self._f = 0.0

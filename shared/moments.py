@@ -75,18 +75,26 @@ def shifted(sums, scale, centre):
     return list(s) if s is sums else s
 
 
+# bits of 0..255: the last step of bit_length is a table look-up
+_BITS = bytes([0] + [len(bin(i)) - 2 for i in range(1, 256)])
+
+
 def bit_length(x):
-    """Number of bits of |x| (MicroPython ints have no int.bit_length)."""
+    """Number of bits of |x| (MicroPython ints have no int.bit_length).
+
+    64 bits at a time while x is big, then bytes, then a table: a handful of
+    operations instead of one shift per bit (the solver calls this for every
+    conversion of a big integer to a float)."""
     if x < 0:
         x = -x
     n = 0
-    while x >= 0x100000000:
-        x >>= 32
-        n += 32
-    while x:
-        x >>= 1
-        n += 1
-    return n
+    while x >= 0x10000000000000000:
+        x >>= 64
+        n += 64
+    while x >= 0x100:
+        x >>= 8
+        n += 8
+    return n + _BITS[x]
 
 
 def to_float(x, exponent=0):

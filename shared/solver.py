@@ -242,6 +242,8 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
     mu = 1e-3
     iterations = 0
     rejected = 0       # Levenberg-Marquardt steps refused for raising the objective
+    h = None
+    moved = small = False
     for iterations in range(1, max_iter + 1):
         h, g = _system(pb, st)
         if not _finite_all(g):
@@ -278,12 +280,17 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
         if not moved or small:
             break
 
-    cal = _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error)
+    # the error estimate needs the normal matrix at st: the last one was formed one step
+    # before, and serves where that step was tiny or not taken, and for a quick solve
+    # (max_iter <= 2: a device's provisional estimate) whose result is an estimate anyway
+    if moved and not small and max_iter > 2:
+        h = None
+    cal = _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error, h)
     cal.diagnostics["rejected"] = rejected
     return cal
 
 
-def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error):
+def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error, h=None):
     from shared.calibration import Calibration
 
     one = num(1.0)
@@ -340,7 +347,7 @@ def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_er
 
     rss = pb.value(st.rss, -6 * FRAC) / pb.nf
     rms = num(math.sqrt(float(rss))) / num(2.0) * field_out
-    predicted = _predicted_error(pb, st, rss, am, a_values, a_vectors, num) * field_out
+    predicted = _predicted_error(pb, st, rss, am, a_values, a_vectors, num, h) * field_out
 
     flat = [v for row in matrix for v in row] + offset + [field_out, rms, predicted]
     if not _finite_all(flat):
@@ -361,14 +368,17 @@ def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_er
     return Calibration([[float(v) for v in row] for row in matrix], [float(v) for v in offset], float(field_out), diagnostics)
 
 
-def _predicted_error(pb, st, rss, am, a_values, a_vectors, num):
+def _predicted_error(pb, st, rss, am, a_values, a_vectors, num, h=None):
     """RMS over the sphere of the relative |h_c| error, from the posterior covariance.
 
     Cov(p) = (RSS/N) H^-1 with H the per-sample normal matrix of (2). For a true
     direction u the point on the fitted ellipsoid is v = A^-1/2 u and the
     relative magnitude error is g.dp with g = (w(v)/2, -A v).
+    h: the normal matrix formed at or one tiny step before st (re-forming it
+    costs ~2M instructions on a Cortex-M, docs/firmware.md), or None.
     """
-    h, _ = _system(pb, st)
+    if h is None:
+        h, _ = _system(pb, st)
     try:
         low = linalg.cholesky(h, num)
     except ValueError:

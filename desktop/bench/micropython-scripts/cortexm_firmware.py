@@ -113,6 +113,11 @@ def main(frames_path, root, rate, seconds, replay_n=1200):
     cal = full._solve()
     out["solve"] = count(t0, time.ticks_us())
     out["solve_iterations"] = cal.diagnostics["iterations"]
+    cal = None
+    gc.collect()
+    t0 = time.ticks_us()
+    full._solve(calibrate._PROVISIONAL_ITER)
+    out["solve_provisional"] = count(t0, time.ticks_us())
     full = gates = None
 
     # the whole calibrating firmware: the real main loop, provisional solves included
@@ -120,7 +125,19 @@ def main(frames_path, root, rate, seconds, replay_n=1200):
     s = app.session
     frames = seconds * rate
     gc.collect()
-    out["calibrating_per_s"] = loop(app, board, frames, harness) // seconds
+    n = loop(app, board, frames, harness)
+    # per second in the steady state: the loop without its provisional solves, plus one
+    # provisional solve per solve_every_s (the loop's own count of them depends on where
+    # its end falls)
+    out["cal_solves"] = s.solves
+    out["calibrating_loop_per_s"] = n // seconds
+    out["calibrating_per_s"] = ((n - s.solves * out["solve_provisional"]) // seconds
+                                + out["solve_provisional"] // cfg["solve_every_s"])
+    # one collection of the calibrating firmware's heap: what every ~free-heap bytes of garbage cost
+    t0 = time.ticks_us()
+    gc.collect()
+    out["gc_collect"] = count(t0, time.ticks_us())
+    out["heap_live_calibrating"] = gc.mem_alloc()
     out["cal_seen"] = s.seen
     out["cal_accepted"] = s.fit.n
     code_cal, reason, msg = s.finish()

@@ -5,7 +5,10 @@
 # seek(pos) and readinto(buf): io.BytesIO over a table in RAM, or a file opened "rb" (the table then
 # stays out of the heap, e.g. on a ROM filesystem). The table wraps around at its end.
 # Only what every MicroPython port has: no time, os or /proc here (the unix-only timing stays in
-# the scripts), so it also runs bare-metal.
+# the scripts), so it also runs bare-metal. The DRDY handler runs with the heap locked, as in a
+# hard interrupt: an allocation there fails here as it would on a board.
+
+from micropython import heap_lock, heap_unlock
 
 FRAME = 9     # bytes per chip per conversion
 
@@ -92,7 +95,13 @@ class LoopBoard:
         self.k = k
         self._seek(k * 18)
         if self.handler is not None:
+            # as a hard interrupt runs it: with the heap locked. A Python function whose frame
+            # is too big for the C stack's fixed slot puts it on the heap when it can (and frees
+            # it after); in a hard IRQ it cannot and takes the C stack. Unlocked, the handler
+            # would pay a heap allocation per conversion that a board's handler does not.
+            heap_lock()
             self.handler(None)
+            heap_unlock()
 
     def serial_read(self):
         return None
