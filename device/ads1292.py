@@ -1,7 +1,7 @@
 """TI ADS1292 driver: two chips on one SPI bus, one shared START line.
 
     acq = Acquisition(board, decim=20, window=5)
-    adc = ADS1292Pair(board, acq, rate=2000, gains=(1, 1, 1))
+    adc = ADS1292Pair(board, acq, rate=1000, gains=(1, 1, 1))
     adc.begin()                 # reset, probe IDs, configure, verify, RDATAC, START
     board.attach_drdy(acq.isr, adc.rate, acq.account_gap)
 
@@ -82,7 +82,7 @@ class ADS1292Pair:
     """Two ADS1292 on one bus. `board` is the HAL (hal.py), `acq` the
     acquisition.Acquisition that receives their frames."""
 
-    def __init__(self, board, acq, rate=2000, gains=(1, 1, 1), vref_4v=False):
+    def __init__(self, board, acq, rate=1000, gains=(1, 1, 1), vref_4v=False):
         self.board = board
         self.acq = acq
         self.rate = rate

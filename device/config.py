@@ -24,10 +24,12 @@ SCHEMA = {
     "pin_reset": (26, "pin", 0, 0),
     "pin_button": (15, "pin", 0, 0),
     "pin_led": (25, "pin", 0, 0),
-    # ADC: 2000 SPS keeps the boxcar at the simulator's 2.5 ms (5 frames) with a
-    # sinc3 of its own only 1.5 ms long (3/fDR, [DS] §8.3.3); the cost per DRDY edge
-    # outside the boxcar is a counter (docs/firmware.md, sweep)
-    "rate": (2000, "int", 125, 8000),
+    # ADC: 1000 SPS, every conversion a DRDY interrupt. At 2000 SPS the handler alone
+    # took 43 % of the calibrating firmware's instructions on a Cortex-M
+    # (python -m desktop.bench.cortexm); 1000 SPS halves it, with the same noise per
+    # decimated sample (gain 6: 1.3 uVrms / sqrt 2 against 2.2 / sqrt 5, [DS] §7.1) and
+    # the same spin accuracy in the simulator (docs/firmware.md, sweep).
+    "rate": (1000, "int", 125, 8000),
     "gain_x": (1, "int", 1, 12),
     "gain_y": (1, "int", 1, 12),
     "gain_z": (1, "int", 1, 12),
@@ -39,15 +41,15 @@ SCHEMA = {
     "scale_x": (0.0144243258, "float", 1e-6, 1e3),
     "scale_y": (0.0144243258, "float", 1e-6, 1e3),
     "scale_z": (0.0144243258, "float", 1e-6, 1e3),
-    # decimation: a 5-frame (2.5 ms) boxcar every 20 frames -> 100 samples/s to the
-    # gates. The smearing experiment (docs/simulator.md): a 2.5 ms boxcar + a 1 rev/s
+    # decimation: a 2-frame (2 ms) boxcar every 10 frames -> 100 samples/s to the
+    # gates. The smearing experiment (docs/simulator.md): a ~2 ms boxcar + a 1 rev/s
     # gate scores like fitting every conversion; the fit needs a few thousand
-    # samples, not 400/s. The sweep in docs/firmware.md (python -m desktop.bench.device):
-    # 2000/5/5 needs ~60 % of an RP2040 (40x the unix port) while calibrating,
-    # 2000/20/5 ~30 % at the same accuracy, so 20 leaves headroom for streaming and
-    # the 25-60x uncertainty. window <= 64 keeps the handler's sums below 2**30.
-    "decim": (20, "int", 1, 256),
-    "window": (5, "int", 1, 64),
+    # samples, not 400/s. The sweep in docs/firmware.md (python -m desktop.bench.device,
+    # python -m desktop.bench.cortexm): more samples per second cost the gates and the
+    # fit in proportion for little accuracy. window <= 64 keeps the handler's sums
+    # below 2**30.
+    "decim": (10, "int", 1, 256),
+    "window": (2, "int", 1, 64),
     # calibration
     "field_nt": (None, "opt_float", 1000.0, 100000.0),  # local field if known (e.g. IGRF)
     "field_tol": (0.05, "float", 0.001, 0.5),     # accepted |fitted/configured - 1|

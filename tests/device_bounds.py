@@ -14,10 +14,12 @@ calibration a 360 degree spin shows only
 
 import numpy as np
 
+from desktop.firmware.files import import_device
 from desktop.sim.ads1292.convert import noise_gain_factor
 from desktop.sim.ads1292.registers import DATA_RATES, FULL_SCALE_CODE, NOISE_UV_GAIN6, VREF_LOW
 
-DEFAULTS = {"rate": 2000, "decim": 20, "window": 5, "survey_hz": 10, "gate_rate_dps": 360.0}
+# the firmware's own defaults (device/config.py), so a bound follows a change of them
+DEFAULTS = {k: import_device("config").SCHEMA[k][0] for k in ("rate", "decim", "window", "survey_hz", "gate_rate_dps")}
 
 
 def block_sigma(scenario, cfg=None):

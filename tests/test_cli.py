@@ -101,8 +101,8 @@ def test_demo_runs_the_firmware_on_the_simulated_handheld(tmp_path):
     row = [ln for ln in proc.stdout.splitlines() if ln.startswith("| this firmware (micropython)")]
     ptp = float(row[0].split("|")[2])
     from desktop.sim.scenario import Scenario
-    from tests.device_bounds import spin_ptp_bound
-    assert ptp <= spin_ptp_bound(Scenario(rate=2000), 100), ptp
+    from tests.device_bounds import DEFAULTS, spin_ptp_bound
+    assert ptp <= spin_ptp_bound(Scenario(rate=DEFAULTS["rate"]), 100), ptp
     assert (tmp_path / "device_spin.png").exists() and (tmp_path / "device_coverage.png").exists()
 
 

@@ -22,9 +22,12 @@ ads1292 = import_device("ads1292")
 store = import_device("store")
 
 
+RATE = import_device("config").SCHEMA["rate"][0]    # the firmware's default data rate
+
+
 def boot(tmp_path, fault=(None, None), seconds=5.0):
     """The firmware on its default config.json (none) in a still handheld."""
-    w = make_world(serial=None, motion="stationary", seconds=seconds, seed=3, rate=2000, fault=fault)
+    w = make_world(serial=None, motion="stationary", seconds=seconds, seed=3, rate=RATE, fault=fault)
     dev = start_device(w, str(tmp_path), kind="cpython")
     dev.run_until(0.3)
     return w, dev
@@ -37,7 +40,8 @@ def test_boot_configures_both_chips_without_violations(tmp_path):
     for chip in w.chips:
         assert chip.violations == []          # datasheet timing and fixed bits respected
     r0, r1 = w.chips[0].registers, w.chips[1].registers
-    assert r0[1] == 0x04 and r1[1] == 0x04    # CONFIG1: DR=100, 2000 SPS
+    dr = ads1292.rate_code(RATE)             # CONFIG1: continuous conversion, DR (1000 SPS: 011)
+    assert RATE == 1000 and r0[1] == dr == 0x03 and r1[1] == dr
     assert r0[2] == 0xA0                      # CONFIG2: internal reference buffer on, 2.42 V
     assert r1[5] == 0x14                      # CH2SET chip 1: gain 1, MUX=0100 temperature
     assert dev.app.fault is None
@@ -63,9 +67,9 @@ def test_frames_decode_to_the_field(tmp_path):
     _, b = w.handheld.truth(np.array([1.0]))
     truth = b[0] @ a.T + c
     mean_nt = codes[:, :3].mean(axis=0) * lsb
-    # per frame: the ADS1292's noise at 2000 SPS, gain 1 [DS §7.1] in nT, and the sensor's;
+    # per frame: the ADS1292's noise at the data rate, gain 1 [DS §7.1] in nT, and the sensor's;
     # averaged over the 100 x window frames read; 5 sigma, plus half a code of rounding
-    adc_nt = NOISE_UV_GAIN6[4] * 1e-6 * noise_gain_factor(1) / (VREF_LOW / FULL_SCALE_CODE) * lsb[0]
+    adc_nt = NOISE_UV_GAIN6[ads1292.rate_code(RATE)] * 1e-6 * noise_gain_factor(1) / (VREF_LOW / FULL_SCALE_CODE) * lsb[0]
     sigma = np.hypot(adc_nt, w.scenario.noise) / np.sqrt(100 * win)
     assert np.all(np.abs(mean_nt - truth) < 5 * sigma + 0.5 * lsb), (mean_nt - truth, sigma)
     # the die sensor: 490 uV/C [DS Eq.3] against the same ADC noise, averaged over a block

@@ -85,7 +85,7 @@ def test_config_roundtrip_persists(client, tmp_path):
     assert client.ask("config set field_nt 48000")["value"] == 48000.0
     with open(tmp_path / "flash" / "config.json") as f:
         assert json.loads(f.readline()) == {"survey_hz": 5, "field_nt": 48000.0}
-    r = client.ask("config set rate 1000")
+    r = client.ask("config set rate 2000")
     assert r["ok"]
     s = client.ask("status", dt=0.2)
     assert s["frames"] > 0 and s["fault"] is None
@@ -149,8 +149,8 @@ def test_protocol_on_each_interpreter_over_pty(name, tmp_path):
         c.write(b"\xc3\x28\n")
         c.step()
         assert c.replies()[-1]["error"] == "bad_encoding"
-        assert c.ask("config set decim 4")["error"] == "bad_value"   # window 5 > decim 4
-        assert c.ask("config set decim 10")["ok"]
+        assert c.ask("config set decim 1")["error"] == "bad_value"   # window 2 > decim 1
+        assert c.ask("config set decim 20")["ok"]
         s = c.ask("status", dt=0.3)
         assert s["frames"] > 0 and s["overflow"] == 0 and s["samples"] > 0
         assert c.junk == []

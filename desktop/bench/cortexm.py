@@ -124,6 +124,9 @@ def print_tables(now, before=None, rev=None):
         ("calibration gates per decimated sample", "firmware", "gates_per_sample", _k),
         ("add() per accepted sample, in the firmware (collections included)", "firmware", "add_per_accepted", _k),
         ("solve() of the firmware's fit (%d samples)" % f["replay_accepted"], "firmware", "solve", _k),
+        ("provisional solve of the same fit (every solve_every_s while calibrating)", "firmware",
+         "solve_provisional", _k),
+        ("one garbage collection of the calibrating firmware's heap", "firmware", "gc_collect", _k),
         ("survey output per block (correct, format the data event)", "firmware", "output_per_block", _k),
         ("whole firmware calibrating, per second of data", "firmware", "calibrating_per_s", _k),
         ("whole firmware in survey (stream corrected), per second of data", "firmware", "survey_per_s", _k),
@@ -132,10 +135,13 @@ def print_tables(now, before=None, rev=None):
         cells = [fmt(v[part][key]) if key in v.get(part, {}) else "n/a" for _, v in cols]
         print("| %s | %s |" % (label, " | ".join(cells)))
     reads = RATE * f["window"] / f["decim"]
-    print("\nCalibrating run: %d s of a hand rotation at %d / %d / %d, %d decimated samples, %d accepted, state"
-          " %s; replays: %d samples, %d accepted."
-          % (SECONDS, f["rate"], f["decim"], f["window"], f["cal_seen"], f["cal_accepted"], f["cal_state"],
-             f["replay_samples"], f["replay_accepted"]))
+    print("\nCalibrating run: %d s of a hand rotation at %d / %d / %d, %d decimated samples, %d accepted, %d"
+          " provisional solves, state %s; its steady state per second is the loop without those solves plus one"
+          " provisional solve per 5 s (the loop itself: %s). Replays: %d samples, %d accepted. Heap held while"
+          " calibrating: %d bytes."
+          % (SECONDS, f["rate"], f["decim"], f["window"], f["cal_seen"], f["cal_accepted"], f["cal_solves"],
+             f["cal_state"], _k(f["calibrating_loop_per_s"]), f["replay_samples"], f["replay_accepted"],
+             f["heap_live_calibrating"]))
     print("\n### Load at the default configuration, from the counts\n")
     print("Instructions x cycles per Cortex-M3 instruction (typical, range) / clock, plus the SPI wire time"
           " (%d frame reads/s x %.0f us, blocking).\n" % (reads, WIRE_US))
@@ -157,8 +163,10 @@ def print_tables(now, before=None, rev=None):
          + block_rate * f["isr_push_pop"]),
         ("gates (%.0f samples/s)" % block_rate, block_rate * f["gates_per_sample"]),
         ("add() (%.0f accepted/s)" % accept_rate, accept_rate * f["add_per_accepted"]),
-        ("provisional solve every %d s" % 5, f["solve"] / 5.0),
+        ("provisional solve every %d s" % 5, f["solve_provisional"] / 5.0),
     ]
+    parts.append(("the rest: main-loop passes, survey averaging, collections, progress events",
+                  f["calibrating_per_s"] - sum(n for _, n in parts)))
     print("| part | instructions per s | share of the measured loop |")
     print("|---|---|---|")
     for label, n in parts:

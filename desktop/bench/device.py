@@ -53,8 +53,8 @@ SLOWDOWN_RANGE = (25.0, 60.0)
 SCLK_HZ = 8_000_000
 WIRE_US = 2 * 9 * 8 / SCLK_HZ * 1e6
 # (rate SPS, decim, window): the sweep; DEFAULT is device/config.py's
-SWEEP = [(2000, 5, 5), (2000, 20, 5), (2000, 40, 5), (1000, 20, 3), (500, 10, 1)]
-DEFAULT = (2000, 20, 5)
+SWEEP = [(2000, 5, 5), (2000, 20, 5), (1000, 10, 2), (2000, 40, 5), (1000, 20, 3), (500, 10, 1)]
+DEFAULT = (1000, 10, 2)   # device/config.py's
 COST_S = 30          # seconds of data per cost run
 PAPER_TABLE2 = {"Not calibrated": (24055, 652), "Geometric": (15, 3), "Neural network": (8, 4)}
 

@@ -38,7 +38,7 @@ def _plots(r, out_dir):
     fig, ax = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
     ax[0].plot(deg, f_raw, color="tab:red")
     ax[0].set_ylabel("|B| uncalibrated (nT)")
-    ax[0].set_title("360 degree spin, Mag649 at %d SPS: firmware output before / after" % 2000)
+    ax[0].set_title("360 degree spin, Mag649 at %d SPS: firmware output before / after" % r["world"].scenario.rate)
     ax[1].plot(deg, f_cal - np.median(f_cal), color="tab:blue")
     ax[1].set_ylabel("|B| calibrated - median (nT)")
     ax[1].set_xlabel("spin angle (degrees)")

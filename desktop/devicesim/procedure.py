@@ -72,7 +72,7 @@ def send(dev, world, line, dt=0.05):
 
 
 def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s=120.0, spin_s=10.0,
-                         noise_nt=0.1, rate=2000, progress=None, motion_seed=11, cal_world=None, polled=False,
+                         noise_nt=0.1, rate=1000, progress=None, motion_seed=11, cal_world=None, polled=False,
                          costs=COSTS_S, on_cal_device=None, **config):
     """Calibrate on one simulated capture (hand), verify on another (spin), same sensor.
 

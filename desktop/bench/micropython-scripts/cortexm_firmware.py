@@ -116,7 +116,12 @@ def main(frames_path, root, rate, seconds, replay_n=1200):
     cal = None
     gc.collect()
     t0 = time.ticks_us()
-    full._solve(calibrate._PROVISIONAL_ITER)
+    # (a revision before provisional solves were quick solves all of them fully)
+    provisional_iter = getattr(calibrate, "_PROVISIONAL_ITER", None)
+    if provisional_iter is None:
+        full._solve()
+    else:
+        full._solve(provisional_iter)
     out["solve_provisional"] = count(t0, time.ticks_us())
     full = gates = None
 
@@ -129,9 +134,10 @@ def main(frames_path, root, rate, seconds, replay_n=1200):
     # per second in the steady state: the loop without its provisional solves, plus one
     # provisional solve per solve_every_s (the loop's own count of them depends on where
     # its end falls)
-    out["cal_solves"] = s.solves
+    # (a revision without the counter: the provisional solves a 15 s loop holds, at 5 and 10 s)
+    out["cal_solves"] = getattr(s, "solves", (seconds - 1) // cfg["solve_every_s"])
     out["calibrating_loop_per_s"] = n // seconds
-    out["calibrating_per_s"] = ((n - s.solves * out["solve_provisional"]) // seconds
+    out["calibrating_per_s"] = ((n - out["cal_solves"] * out["solve_provisional"]) // seconds
                                 + out["solve_provisional"] // cfg["solve_every_s"])
     # one collection of the calibrating firmware's heap: what every ~free-heap bytes of garbage cost
     t0 = time.ticks_us()
