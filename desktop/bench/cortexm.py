@@ -22,6 +22,7 @@ cycles; the conversion is stated where it is used (CYCLES_PER_M3_INSTRUCTION).
 """
 
 import argparse
+import importlib.util
 import json
 import os
 import subprocess
@@ -35,7 +36,6 @@ from desktop.firmware.files import REPO, import_device
 from desktop.firmware.interpreters import interpreter, mpy_cross_exe
 
 SCRIPTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "micropython-scripts")
-RATE = 2000
 SECONDS = 15
 # Cycles per Cortex-M3 instruction counted here, (typical, low, high), for the same C compiled
 # for each core. Cortex-M0+ (ARMv6-M, RP2040): Thumb-1 only, so ~1.1-1.3x the instructions,
@@ -73,14 +73,25 @@ def make_rom(tree, rom, frames):
     return rom
 
 
-def count(tree, frames):
-    """{"core": {...}, "firmware": {...}} counted on a fresh board with tree's code."""
+def default_rate(tree):
+    """The data rate tree's firmware configures by default (its device/config.py)."""
+    spec = importlib.util.spec_from_file_location("_config_of_tree", os.path.join(tree, "device", "config.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.SCHEMA["rate"][0]
+
+
+def count(tree):
+    """{"core": {...}, "firmware": {...}} counted on a fresh board with tree's code, fed a hand
+    rotation at the data rate tree's firmware configures by default."""
     out = {}
+    rate = default_rate(tree)
+    frames, _ = frame_table(seconds=20.0, rate=rate)
     with tempfile.TemporaryDirectory() as tmp:
         rom = make_rom(tree, os.path.join(tmp, "rom"), frames)
         for key, call in (("core", "import cortexm_core\ncortexm_core.main()"),
                           ("firmware", "import cortexm_firmware\ncortexm_firmware.main('/rom/frames.bin',"
-                                       " '/rom/flash', %d, %d)" % (RATE, SECONDS))):
+                                       " '/rom/flash', %d, %d)" % (rate, SECONDS))):
             with QemuBoard(rom=rom) as board:
                 out[key] = json.loads(board.exec(call, timeout=1800).strip().splitlines()[-1])
     return out
@@ -134,7 +145,7 @@ def print_tables(now, before=None, rev=None):
     for label, part, key, fmt in rows:
         cells = [fmt(v[part][key]) if key in v.get(part, {}) else "n/a" for _, v in cols]
         print("| %s | %s |" % (label, " | ".join(cells)))
-    reads = RATE * f["window"] / f["decim"]
+    reads = f["rate"] * f["window"] / f["decim"]
     print("\nCalibrating run: %d s of a hand rotation at %d / %d / %d, %d decimated samples, %d accepted, %d"
           " provisional solves, state %s; its steady state per second is the loop without those solves plus one"
           " provisional solve per 5 s (the loop itself: %s). Replays: %d samples, %d accepted. Heap held while"
@@ -146,20 +157,22 @@ def print_tables(now, before=None, rev=None):
     print("Instructions x cycles per Cortex-M3 instruction (typical, range) / clock, plus the SPI wire time"
           " (%d frame reads/s x %.0f us, blocking).\n" % (reads, WIRE_US))
     print("| core, clock | cycles per M3 instruction | calibrating | survey (stream corrected) |" +
-          (" calibrating, before |" if before else ""))
+          (" calibrating, before (%d / %d / %d) |" % tuple(before["firmware"][k] for k in ("rate", "decim", "window"))
+           if before else ""))
     print("|---|---|---|---|" + ("---|" if before else ""))
     for core in ("Cortex-M0+", "Cortex-M4"):
         cyc = CYCLES_PER_M3_INSTRUCTION[core]
         cells = [load(f[k], reads, core) for k in ("calibrating_per_s", "survey_per_s")]
         if before:
-            cells.append(load(before["firmware"]["calibrating_per_s"], reads, core))
+            b = before["firmware"]
+            cells.append(load(b["calibrating_per_s"], b["rate"] * b["window"] / b["decim"], core))
         print("| %s, %.0f MHz | %.1f (%.1f-%.1f) | %s |" % (
             core, CLOCK_HZ[core] / 1e6, *cyc, " | ".join("%.1f %% (%.1f-%.1f)" % tuple(x) for x in cells)))
     print("\nWhere the calibrating second goes (counts x rates; the rest is the main loop, button, serial, LED):\n")
     block_rate = f["rate"] / f["decim"]
     accept_rate = f["cal_accepted"] / SECONDS
     parts = [
-        ("DRDY handler", RATE * (f["decim"] - f["window"]) / f["decim"] * f["isr_skip"] + reads * f["isr_read"]
+        ("DRDY handler", f["rate"] * (f["decim"] - f["window"]) / f["decim"] * f["isr_skip"] + reads * f["isr_read"]
          + block_rate * f["isr_push_pop"]),
         ("gates (%.0f samples/s)" % block_rate, block_rate * f["gates_per_sample"]),
         ("add() (%.0f accepted/s)" % accept_rate, accept_rate * f["add_per_accepted"]),
@@ -181,12 +194,11 @@ def main(argv=None):
         print("qemu-m3 is not built: make interpreters")
         return 1
     t0 = time.time()
-    frames, _ = frame_table(seconds=20.0, rate=RATE)
-    now = count(REPO, frames)
+    now = count(REPO)
     before = None
     if args.before:
         with tempfile.TemporaryDirectory() as tmp:
-            before = count(checkout(args.before, os.path.join(tmp, "tree")), frames)
+            before = count(checkout(args.before, os.path.join(tmp, "tree")))
     print_tables(now, before, args.before)
     print("\n(command: python -m desktop.bench.cortexm%s; %.0f s)" % (
         " --before " + args.before if args.before else "", time.time() - t0))
