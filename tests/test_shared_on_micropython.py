@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 from desktop.methods import magnitudes
+from desktop.sim.instrument import realistic_instrument
 from shared.calibration import Calibration
 from tests.interpreters import INTERPRETERS, float_eps, need
 from tests.scenarios import FIELD, LSB, scenario
@@ -94,20 +95,9 @@ MAG_SCRIPT = os.path.join(os.path.dirname(__file__), "micropython", "magnitudes.
 
 @pytest.fixture(scope="module")
 def instrument(tmp_path_factory):
-    """A realistic instrument: 48,000 nT, 1 deg / 0.5 % / 300 nT errors, front-end offsets of a
-    few million codes and 0.0096 nT per code (codes up to 7.6 million), its calibration fitted
-    in CPython, and a 360 degree spin of integer codes."""
-    from desktop.methods import fit_array
-    from desktop.sim.points import uniform_directions
-    from desktop.sim.sensor import Sensor
-    field, k = 48000.0, 0.0096
-    rng = np.random.default_rng(5)
-    sensor = Sensor.random(rng, 1.0, 0.005, 300.0, 0.0)
-    front_end = np.array([3.4e6, -3.1e6, 3.6e6])
-    cal = fit_array(sensor.measure(field * uniform_directions(rng, 4000)) / k + front_end, field=field)
-    t = np.linspace(0, 2 * np.pi, 400, endpoint=False)
-    d = np.column_stack([0.6 * np.cos(t), 0.6 * np.sin(t), np.full_like(t, 0.8)])
-    codes = np.rint(sensor.measure(field * d) / k + front_end).astype(np.int64)
+    """A realistic instrument (desktop/sim/instrument.py: codes up to 7.6 million, 48,000 nT),
+    its calibration fitted in CPython, and a 360 degree spin of integer codes."""
+    cal, _, codes, field = realistic_instrument()
     path = tmp_path_factory.mktemp("instrument") / "job.json"
     path.write_text(json.dumps({"cal": cal.to_dict(), "codes": codes.tolist()}))
     return path, cal, codes, field

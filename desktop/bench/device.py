@@ -1,4 +1,4 @@
-"""Firmware benchmarks on the `micropython` executable: cost, heap, accuracy, duty cycle, power.
+"""Firmware benchmarks on the `micropython` executable: cost, heap, accuracy, power.
 
     python -m desktop.bench.device              # prints markdown tables (docs/firmware.md, README)
     python -m desktop.bench.device --repeats 5  # more cost runs per configuration (default 3)
@@ -12,17 +12,17 @@ bytes, accepted samples, iterations) are checked to be equal in every run and ma
    (256 KB heap, .mpy image) on a loop-back board fed with real frames of a
    simulated hand rotation (no simulator link in the timings). R runs per configuration,
    interleaved across the configurations, each on a fresh (empty) flash folder. The
-   whole-firmware figures (us per second of data, and the RP2040 load from them) are the
-   process's CPU time (time.clock): on this shared machine the wall time of the same loop also
+   whole-firmware figures (us per second of data) are the process's CPU time (time.clock): on this shared machine the wall time of the same loop also
    holds the time spent waiting for a core (printed beside it, from /proc/self/schedstat).
    The per-frame handler figures are wall time, the median of 5 short blocks.
 2. Accuracy: the scripted field calibration (desktop/devicesim/procedure.py) on
    micropython against the byte-level emulator: Mag649 preset, 0.1 nT noise,
    hand rotation, auto-finish, then a 360 degree verification spin. Simulated time:
    deterministic, run once.
-3. Duty cycle on a 133 MHz Cortex-M0+ from the measured unix-port costs and a
-   stated slow-down factor; power budget from the ADS1292 datasheet and MCU figures.
-The wall time of `make demo` itself: python -m desktop.bench.commands.
+3. Power budget from the ADS1292 datasheet and MCU figures.
+What the firmware costs a microcontroller is counted in instructions on an emulated
+Cortex-M3: python -m desktop.bench.cortexm. The wall time of `make demo` itself:
+python -m desktop.bench.commands.
 """
 
 import argparse
@@ -35,7 +35,7 @@ import time
 
 import numpy as np
 
-from desktop.bench.repeat import det, fmt, spread
+from desktop.bench.repeat import det, fmt
 from desktop.devicesim.procedure import calibrate_and_verify
 from desktop.firmware.image import build_image
 from desktop.firmware.interpreters import micropython_exe
@@ -43,11 +43,6 @@ from desktop.sim.scenario import Scenario, simulate
 
 SCRIPTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "micropython-scripts")
 
-# Unix port on this x86-64 host vs MicroPython on an RP2040 at 133 MHz (Cortex-M0+,
-# no FPU: soft floats, 32-bit): clock ratio ~20x, IPC and cache ~2x, soft-float
-# arithmetic on the float-heavy paths; we take 40x (range 25-60x) as the assumption.
-SLOWDOWN = 40.0
-SLOWDOWN_RANGE = (25.0, 60.0)
 # SPI wire time per frame read: 2 chips x 9 bytes at DATA_BAUD (hal_micropython: 8 MHz),
 # blocking in machine.SPI.readinto; outside the unix-port timings, added on top.
 SCLK_HZ = 8_000_000
@@ -117,26 +112,8 @@ def measure_costs(tmp, rate, decim, window, hour=False, run=0):
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
-def load(c, rate, decim, window, key, factor=SLOWDOWN):
-    """RP2040 CPU share: unix-port us per second of data x factor, plus the SPI wire time."""
-    reads = rate * window / decim
-    return (c[key] * factor + reads * WIRE_US) * 1e-6
-
-
 CPU_KEYS = ("cal_cpu_us_per_s", "survey_cpu_us_per_s", "stream_cpu_us_per_s")
 WALL_KEYS = ("cal_us_per_s", "survey_us_per_s", "stream_us_per_s")
-
-
-def _load_cell(runs, rate, decim, window, key):
-    """'30 % (runs 27-33; 19-45 at 25-60x)': median over the runs at SLOWDOWN, the range over the runs,
-    then the slow-down range applied to the median run's cost."""
-    per_run = spread([100 * load(c, rate, decim, window, key) for c in runs])
-    med = {key: spread([c[key] for c in runs]).median}
-    lo, hi = (100 * load(med, rate, decim, window, key, f) for f in SLOWDOWN_RANGE)
-    if per_run.n == 1:
-        return "%.0f %% (%.0f-%.0f at %.0f-%.0fx)" % (per_run.median, lo, hi, *SLOWDOWN_RANGE)
-    return "%.0f %% (runs %.0f-%.0f; %.0f-%.0f at %.0f-%.0fx)" % (
-        per_run.median, per_run.lo, per_run.hi, lo, hi, *SLOWDOWN_RANGE)
 
 
 def main(argv=None):
@@ -236,25 +213,19 @@ def main(argv=None):
                 det(col(cfg, key), "%d", "%s at %d / %d / %d" % ((key,) + cfg), notes)
     print()
     print("## Sweep: accuracy (micropython + byte-level emulator, Mag649, 0.1 nT, hand rotation, auto-finish,"
-          " 360 deg spin) and estimated RP2040 load\n")
-    print("Load = unix-port CPU time x %.0f (range %.0f-%.0fx) + SPI wire time (2 x 9 bytes at %.0f MHz = %.0f us"
-          " per frame read). Load cells: median over %d cost runs at %.0fx (min-max over the runs; the"
-          " %.0f-%.0fx range applied to the median run). Accuracy columns: one run (simulated time, deterministic).\n"
-          % (SLOWDOWN, SLOWDOWN_RANGE[0], SLOWDOWN_RANGE[1], SCLK_HZ / 1e6, WIRE_US, R, SLOWDOWN,
-             SLOWDOWN_RANGE[0], SLOWDOWN_RANGE[1]))
-    print("| rate / decim / window | boxcar | state | rotation (s) | samples in fit | PTP (nT) | Var (nT^2) |"
-          " RP2040 load calibrating | RP2040 load survey (stream + log) | solve stall (RP2040) |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          " 360 deg spin)\n")
+    print("One run per configuration (simulated time, deterministic). What each configuration costs a"
+          " microcontroller: python -m desktop.bench.cortexm (instruction counts on an emulated Cortex-M3).\n")
+    print("| rate / decim / window | boxcar | state | rotation (s) | samples in fit | PTP (nT) | Var (nT^2) |")
+    print("|---|---|---|---|---|---|---|")
     for cfg in SWEEP:
         rate, decim, window = cfg
         a = acc[cfg]
         cal = a["cal"] or {}
-        print("| %d / %d / %d%s | %.1f ms | %s | %.1f | %s | %.3f | %.4f | %s | %s | %s |"
+        print("| %d / %d / %d%s | %.1f ms | %s | %.1f | %s | %.3f | %.4f |"
               % (rate, decim, window, " (default)" if cfg == DEFAULT else "", 1000.0 * window / rate,
                  cal.get("state"), a["rotated_s"], cal.get("n"), a["ptp_cal"] or float("nan"),
-                 a["var_cal"] or float("nan"), _load_cell(runs[cfg], rate, decim, window, "cal_cpu_us_per_s"),
-                 _load_cell(runs[cfg], rate, decim, window, "stream_cpu_us_per_s"),
-                 fmt([c["ms_solve"] * SLOWDOWN / 1000 for c in runs[cfg]], "%.2f", " s")))
+                 a["var_cal"] or float("nan")))
     print()
     a = acc[DEFAULT]
     print("| | PTP (nT) | Var (nT^2) |")

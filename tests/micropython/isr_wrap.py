@@ -41,7 +41,7 @@ micropython.heap_lock()
 try:
     for _ in range(3 * A.MAX_WINDOW):        # three whole blocks: every counter crosses its wrap
         isr(None)
-except MemoryError as e:
+except MemoryError:
     errors.append("MemoryError")
 finally:
     micropython.heap_unlock()

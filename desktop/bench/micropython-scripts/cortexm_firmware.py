@@ -57,22 +57,30 @@ def replay(session, samples, n):
     return count(t0, time.ticks_us())
 
 
-def main(frames_path, root, rate, seconds, replay_n=1200):
-    import app as appmod
-    import calibrate
-    board = LoopBoard(open(frames_path, "rb"), root, rate)
-    app = appmod.App(board)
-    cfg = app.cfg
-    out = {"rate": rate, "decim": cfg["decim"], "window": cfg["window"], "seconds": seconds}
-    acq = app.acq
+def provisional_solve(session, calibrate):
+    """Instructions of one provisional solve of the session's fit, as Session.tick runs it (a
+    revision before provisional solves were quick solves ran them in full)."""
+    it = getattr(calibrate, "_PROVISIONAL_ITER", None)
+    gc.collect()
+    t0 = time.ticks_us()
+    if it is None:
+        session._solve()
+    else:
+        session._solve(it)
+    return count(t0, time.ticks_us())
 
-    harness, skip, read, push = board.handler_costs(acq, per_frame, 2000)
+
+def units(app, board, out, replay_n):
+    """The DRDY handler by kind of frame, the gates and add() (replays), a final and a
+    provisional solve, and one survey output block; returns the board's harness cost."""
+    import calibrate
+    cfg = app.cfg
+    harness, skip, read, push = board.handler_costs(app.acq, per_frame, 2000)
     out["harness"] = harness
     out["isr_skip"] = skip
     out["isr_read"] = read
     out["isr_push_pop"] = push
     app._setup_pipeline()
-
     # the gates and the fit, replayed on recorded samples: once as they run, once with
     # EllipsoidFit.add replaced by an empty function (the gates' decisions do not depend on it
     # without a provisional fit, and the replay has none)
@@ -93,57 +101,63 @@ def main(frames_path, root, rate, seconds, replay_n=1200):
         no_add(i, i, i)
     t_call = count(t0, time.ticks_us()) // replay_n
     accepted = full.fit.n
-    from shared.fit import EllipsoidFit
-    fit = EllipsoidFit()
-    gc.collect()
-    out["heap_free_replay"] = gc.mem_free()
-    t0 = time.ticks_us()
-    for i in range(0, 3 * replay_n, 3):
-        fit.add(samples[i], samples[i + 1], samples[i + 2])
-    out["add_direct"] = count(t0, time.ticks_us()) // replay_n
-    fit = None
     out["replay_samples"] = replay_n
     out["replay_accepted"] = accepted
     out["gates_per_sample"] = (t_gates - accepted * t_call) // replay_n
     out["add_per_accepted"] = (t_full - t_gates) // max(1, accepted) + t_call
     one = (samples[0], samples[1], samples[2])
-    samples = None
+    samples = gates = None
     gc.collect()
     t0 = time.ticks_us()
     cal = full._solve()
     out["solve"] = count(t0, time.ticks_us())
     out["solve_iterations"] = cal.diagnostics["iterations"]
+    out["solve_provisional"] = provisional_solve(full, calibrate)
+    full = None
+    # one survey output block, streaming corrected with the replay's calibration: correct,
+    # format the data event, hand it to the serial line
+    app.cal = cal.scaled_input(1.0 / cfg["window"])
     cal = None
-    gc.collect()
+    blk = None
+    while blk is None:
+        blk = app.survey.sample(one[0], one[1], one[2], 0, 48000.0)
+    stream = app.stream
+    app.stream = "corrected"
+    app._outputs()
     t0 = time.ticks_us()
-    # (a revision before provisional solves were quick solves all of them fully)
-    provisional_iter = getattr(calibrate, "_PROVISIONAL_ITER", None)
-    if provisional_iter is None:
-        full._solve()
-    else:
-        full._solve(provisional_iter)
-    out["solve_provisional"] = count(t0, time.ticks_us())
-    full = gates = None
+    for _ in range(20):
+        app._output(blk)
+    out["output_per_block"] = count(t0, time.ticks_us()) // 20
+    app.stream = stream
+    app.cal = None
+    app._setup_pipeline()
+    return harness
 
-    # the whole calibrating firmware: the real main loop, provisional solves included
+
+def loops(app, board, out, seconds, harness):
+    """The whole firmware per second of data: the real main loop calibrating (its steady
+    state: one provisional solve per solve_every_s), then in survey streaming corrected."""
+    import calibrate
+    cfg = app.cfg
+    rate = cfg["rate"]
     app.start_session()
     s = app.session
     frames = seconds * rate
     gc.collect()
     n = loop(app, board, frames, harness)
-    # per second in the steady state: the loop without its provisional solves, plus one
-    # provisional solve per solve_every_s (the loop's own count of them depends on where
-    # its end falls)
     # (a revision without the counter: the provisional solves a 15 s loop holds, at 5 and 10 s)
     out["cal_solves"] = getattr(s, "solves", (seconds - 1) // cfg["solve_every_s"])
-    out["calibrating_loop_per_s"] = n // seconds
-    out["calibrating_per_s"] = ((n - out["cal_solves"] * out["solve_provisional"]) // seconds
-                                + out["solve_provisional"] // cfg["solve_every_s"])
     # one collection of the calibrating firmware's heap: what every ~free-heap bytes of garbage cost
     t0 = time.ticks_us()
     gc.collect()
     out["gc_collect"] = count(t0, time.ticks_us())
     out["heap_live_calibrating"] = gc.mem_alloc()
+    prov = provisional_solve(s, calibrate)
+    out["calibrating_loop_per_s"] = n // seconds
+    # the loop's own count of solves depends on where its end falls: without them, plus one
+    # provisional solve per solve_every_s
+    out["calibrating_per_s"] = (n - out["cal_solves"] * prov) // seconds + prov // cfg["solve_every_s"]
+    out["solve_provisional_loop"] = prov
     out["cal_seen"] = s.seen
     out["cal_accepted"] = s.fit.n
     code_cal, reason, msg = s.finish()
@@ -151,7 +165,6 @@ def main(frames_path, root, rate, seconds, replay_n=1200):
     app.session = None
     if code_cal is None:
         out["cal_reason"] = reason
-        print(json.dumps(out))
         return
     # survey, streaming corrected blocks (the flash is read-only here: no log)
     app.cal = code_cal
@@ -159,15 +172,26 @@ def main(frames_path, root, rate, seconds, replay_n=1200):
     app._setup_pipeline()
     gc.collect()
     out["survey_per_s"] = loop(app, board, frames, harness) // seconds
-    # one output block: correct, format the data event, hand it to the serial line
-    blk = None
-    while blk is None:
-        blk = app.survey.sample(one[0], one[1], one[2], 0, 48000.0)
-    t0 = time.ticks_us()
-    for _ in range(20):
-        app._output(blk)
-    out["output_per_block"] = count(t0, time.ticks_us()) // 20
-    out["blocks_per_s"] = cfg["survey_hz"]
     out["survey_blocks"] = app.survey.blocks
+
+
+def main(frames_path, root, rate, seconds, replay_n=1200, unit_counts=True):
+    import app as appmod
+    board = LoopBoard(open(frames_path, "rb"), root, rate)
+    app = appmod.App(board)
+    cfg = app.cfg
+    out = {"rate": cfg["rate"], "decim": cfg["decim"], "window": cfg["window"], "seconds": seconds,
+           "blocks_per_s": cfg["survey_hz"]}
+    if unit_counts:
+        harness = units(app, board, out, replay_n)
+    else:
+        def idles(m):
+            for _ in range(m):
+                board.idle()
+        h = board.handler
+        board.handler = None
+        harness = per_frame(idles, 2000)
+        board.handler = h
+    loops(app, board, out, seconds, harness)
     out["heap_free"] = gc.mem_free()
     print(json.dumps(out))
