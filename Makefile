@@ -22,8 +22,13 @@ test: $(STAMP) interpreters
 demo: $(STAMP)
 	$(BIN)/fluxcal demo
 
-bench: $(STAMP)
+# the core, the interpreters, the 32-bit heap and the Cortex-M counts (about a minute); the
+# firmware's unix-port sweep and the commands' wall times are longer: README, Benchmarks
+bench: $(STAMP) interpreters
 	$(BIN)/python -m desktop.bench
+	$(BIN)/python -m desktop.bench.interpreters
+	$(BIN)/python -m desktop.bench.heap
+	$(BIN)/python -m desktop.bench.cortexm
 
 clean:
 	rm -rf $(VENV) out .pytest_cache build

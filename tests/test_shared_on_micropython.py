@@ -22,7 +22,7 @@ import sys
 import numpy as np
 import pytest
 
-from desktop.methods import magnitudes
+from desktop.methods import fit_array, magnitudes
 from desktop.sim.instrument import realistic_instrument
 from shared.calibration import Calibration
 from tests.interpreters import INTERPRETERS, float_eps, need
@@ -97,7 +97,8 @@ MAG_SCRIPT = os.path.join(os.path.dirname(__file__), "micropython", "magnitudes.
 def instrument(tmp_path_factory):
     """A realistic instrument (desktop/sim/instrument.py: codes up to 7.6 million, 48,000 nT),
     its calibration fitted in CPython, and a 360 degree spin of integer codes."""
-    cal, _, codes, field = realistic_instrument()
+    fit_codes, codes, field = realistic_instrument()
+    cal = fit_array(fit_codes.astype(float), field=field)
     path = tmp_path_factory.mktemp("instrument") / "job.json"
     path.write_text(json.dumps({"cal": cal.to_dict(), "codes": codes.tolist()}))
     return path, cal, codes, field

@@ -28,7 +28,7 @@ import numpy as np
 from desktop.bench.repeat import det, fmt
 from desktop.firmware.files import REPO
 from desktop.firmware.interpreters import FLOAT_BITS, UNIX, interpreter
-from desktop.methods import magnitudes
+from desktop.methods import fit_array, magnitudes
 from desktop.sim.instrument import realistic_instrument
 
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "micropython-scripts", "interp_core.py")
@@ -41,7 +41,8 @@ def main(argv=None):
     p.add_argument("--repeats", type=int, default=3)
     args = p.parse_args(argv)
     t0 = time.time()
-    cal, fit_codes, spin, field = realistic_instrument()
+    fit_codes, spin, field = realistic_instrument()
+    cal = fit_array(fit_codes.astype(float), field=field)
     want = magnitudes(cal, spin.astype(float))
     runs = {name: [] for name in UNIX}
     missing = [name for name in UNIX if interpreter(name) is None]
