@@ -200,6 +200,31 @@ class MicroPythonDevice(_ChildDevice):
         self.world.close()
 
 
+def install_firmware(flash, runtime):
+    """The runtime's firmware files in a board's flash folder: lib/ (.mpy for MicroPython,
+    sources for CircuitPython, whose interpreter refuses MicroPython's .mpy) and the entry points."""
+    build_image(os.path.join(flash, "lib"), runtime=runtime, compiled=runtime == "micropython")
+    for src, name in root_files(runtime):
+        shutil.copyfile(src, os.path.join(flash, name))
+
+
+def board_rom(rom, runtime):
+    """A simulated board's ROM folder: the stand-ins for the runtime's C modules, the wiring
+    (simboard.py) and the simulation link, as frozen modules sit on a board."""
+    os.makedirs(rom, exist_ok=True)
+    for src in [os.path.join(STAND_INS, "simboard.py")] + [os.path.join(DEVICE, f) for f in ("sim_link.py", "sim_wire.py")] + \
+            [os.path.join(STAND_INS, runtime, f) for f in sorted(os.listdir(os.path.join(STAND_INS, runtime)))]:
+        shutil.copyfile(src, os.path.join(rom, os.path.basename(src)))
+    return rom
+
+
+def board_env(rom, flash, fds):
+    """The environment of a simulated board's interpreter: ROM, then the flash's lib/, on its
+    path; the link's two pipes (to the firmware, from it)."""
+    return dict(os.environ, MICROPYPATH=":".join([rom, os.path.join(flash, "lib")]),
+                FLUXCAL_SIMBOARD_FDS="%d,%d" % fds)
+
+
 class BoardDevice(_ChildDevice):
     """The firmware as a board runs it, on stand-ins for the board's C modules.
 
@@ -224,18 +249,11 @@ class BoardDevice(_ChildDevice):
         self.interpreter = interpreter
         self.world = world
         fs = flash_dir(root)
-        build_image(os.path.join(fs, "lib"), runtime=self.runtime, compiled=self.runtime == "micropython")
-        for src, name in root_files(self.runtime):
-            shutil.copyfile(src, os.path.join(fs, name))
-        rom = os.path.join(root, "rom")
-        os.makedirs(rom, exist_ok=True)
-        for src in [os.path.join(STAND_INS, "simboard.py")] + [os.path.join(DEVICE, f) for f in ("sim_link.py", "sim_wire.py")] + \
-                [os.path.join(STAND_INS, self.runtime, f) for f in sorted(os.listdir(os.path.join(STAND_INS, self.runtime)))]:
-            shutil.copyfile(src, os.path.join(rom, os.path.basename(src)))
+        install_firmware(fs, self.runtime)
+        rom = board_rom(os.path.join(root, "rom"), self.runtime)
         to_fw, self._to_fw = os.pipe()
         self._from_fw, from_fw = os.pipe()
-        env = dict(os.environ, MICROPYPATH=":".join([rom, os.path.join(fs, "lib")]),
-                   FLUXCAL_SIMBOARD_FDS="%d,%d" % (to_fw, from_fw))
+        env = board_env(rom, fs, (to_fw, from_fw))
         self.errfile = open(os.path.join(root, "micropython.stderr"), "w+b")
         # program: what runs instead of power-on (a test's snippet on the stand-ins)
         program = program or "import simboard\nsimboard.power_on(%r)\n" % self.runtime

@@ -27,7 +27,7 @@ import tty
 
 from desktop.firmware.interpreters import micropython_exe
 
-_CTRL_A, _CTRL_B = 0x01, 0x02
+_CTRL_A, _CTRL_B, _CTRL_D = 0x01, 0x02, 0x04
 _PROMPT = b">>> "
 
 
@@ -42,6 +42,8 @@ class VirtualBoard:
         self.reboots = 0
         self._proc = None
         self._raw = False
+        self._soft = False      # a Ctrl-D at an empty raw REPL: the next exit is a soft reset
+        self._code = False      # bytes of code typed at the raw REPL since its last Ctrl-A or Ctrl-D
         self._stop = threading.Event()
         self._thread = None
 
@@ -63,17 +65,25 @@ class VirtualBoard:
         self._thread.start()
         return self
 
-    def _boot(self, first=False):
+    def _spawn(self, main):
+        """Start the interpreter on the inner pty: here its REPL (a board without firmware).
+        main: a power-on or hard reset (False: a soft reset from the raw REPL)."""
         env = dict(os.environ, MICROPYPATH=os.path.join(self.flash, "lib"))
         s = self._inner_slave
-        self._proc = subprocess.Popen([self.exe], stdin=s, stdout=s, stderr=s, cwd=self.flash, env=env)
-        if first:
+        return subprocess.Popen([self.exe], stdin=s, stdout=s, stderr=s, cwd=self.flash, env=env)
+
+    def _boot(self, first=False):
+        soft = self._soft and not first
+        self._soft = False
+        if not soft:
+            self._raw = False       # a power-on or hard reset leaves the raw REPL
+        self._proc = self._spawn(main=not soft)
+        if not soft:
             return
         # wait for the new REPL before typing: the interpreter flushes its input
         # when it sets up the terminal, so a byte sent earlier could be lost
         self._forward_until(_PROMPT, timeout=10.0)
-        if self._raw:
-            os.write(self._inner, bytes((_CTRL_A,)))
+        os.write(self._inner, bytes((_CTRL_A,)))
 
     def _forward_until(self, marker, timeout):
         seen = b""
@@ -104,8 +114,15 @@ class VirtualBoard:
                 for b in data:
                     if b == _CTRL_A:
                         self._raw = True
+                        self._code = False
                     elif b == _CTRL_B:
                         self._raw = False
+                    elif b == _CTRL_D and self._raw:
+                        # ends the code typed (run it), or, with none, asks for a soft reset
+                        self._soft = not self._code
+                        self._code = False
+                    elif self._raw and b >= 0x20:
+                        self._code = True
                 if data:
                     os.write(self._inner, data)
             if self._proc.poll() is not None and not self._stop.is_set():

@@ -74,7 +74,13 @@ class World:
         return self.chips[0].time
 
     def _advance(self, seconds):
+        self._ahead(seconds)
         self.bus.advance(seconds)
+
+    def _ahead(self, seconds):
+        """A live handheld computes its analog input as time goes (desktop/sim/handheld.py)."""
+        if self.handheld.live:
+            self.handheld.keep_ahead(self.time + seconds)
 
     def _sync_time(self):
         self.t_us = int(round(self.time * 1e6)) & wire.T_MASK
@@ -146,6 +152,7 @@ class World:
         if advance and limit > t:
             c0 = self.chips[0]
             if self.start_level and c0._next_drdy is not None:
+                self._ahead(min(limit - t, 0.1))
                 try:
                     self.bus.wait_drdy(0, timeout=limit - t)   # DRDY of chip 0 is wired to the MCU
                 except TimeoutError:
@@ -173,6 +180,7 @@ class World:
         """A pin read that takes time (OP_POLL): nothing passes while chip 0's DRDY is low,
         else time runs until it falls or max_us passed."""
         if self.chips[0].drdy and self.start_level:
+            self._ahead(max_us / 1e6)
             try:
                 self.bus.wait_drdy(0, timeout=max_us / 1e6)
             except TimeoutError:

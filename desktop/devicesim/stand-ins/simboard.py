@@ -141,11 +141,13 @@ class Board:
             self._clock()
 
 
-def power_on(runtime):
+def power_on(runtime, main=True):
     """Boot as the board does: boot.py, then main.py (MicroPython) or code.py (CircuitPython),
-    from the flash (the current folder)."""
+    from the flash (the current folder). main=False: a soft reset from the raw REPL, which
+    runs boot.py only (the REPL is what the user asked for)."""
     b = board()
-    for name in ("boot.py", "code.py" if runtime == "circuitpython" else "main.py"):
+    names = ("boot.py", "code.py" if runtime == "circuitpython" else "main.py") if main else ("boot.py",)
+    for name in names:
         try:
             with open(name) as fh:
                 source = fh.read()

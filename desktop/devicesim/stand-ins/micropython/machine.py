@@ -144,7 +144,11 @@ def unique_id():
 
 
 def reset():
-    raise SystemExit(0)      # the board restarts: the interpreter exits, the runner powers it on again
+    # The board restarts: the interpreter stops where it is and the runner powers it on again.
+    # SystemExit would not do: a virtual board runs `micropython -i`, whose REPL catches it.
+    import os
+    os.system("kill -9 $PPID")
+    raise SystemExit(0)
 
 
 def soft_reset():

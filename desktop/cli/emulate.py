@@ -1,0 +1,179 @@
+"""fluxcal emulate [--runtime R] [--sensor S] [--flash DIR] [--bare] [--script FILE] [--seconds S]"""
+
+HELP = "a virtual handheld on a pseudo-terminal: the firmware on the simulated fluxgate, in real time"
+
+KEYS = {"r": "hand", "h": "hold", "s": "spin", "f": "follow", "p": "press", "l": "long-press", "c": "power-cycle"}
+STATUS_S = 10.0
+
+
+def add_arguments(p):
+    from desktop.devicesim.virtual_handheld import RUNTIMES
+    p.add_argument("--runtime", choices=RUNTIMES + ("cpython",), default="micropython",
+                   help="the interpreter the board runs (default micropython; cpython: the firmware in"
+                        " this process, no REPL)")
+    p.add_argument("--sensor", choices=("mag649", "mag648"), default="mag649")
+    p.add_argument("--seed", type=int, default=0, help="the sensor's errors")
+    p.add_argument("--flash", help="the board's flash folder (default: a new temporary one)")
+    p.add_argument("--bare", action="store_true", help="a board with an empty flash: only the REPL")
+    p.add_argument("--script", help="the operator's actions: lines 'SECONDS ACTION [ARG]', e.g. '2 press'")
+    p.add_argument("--seconds", type=float, help="stop after this long (default: until Ctrl-C or 'q')")
+
+
+def read_script(path):
+    """[(seconds, action, arg or None)] from a script file; CommandError naming the bad line."""
+    from desktop.cli import CommandError
+    from desktop.devicesim.virtual_handheld import ACTIONS
+    out = []
+    try:
+        lines = open(path).read().splitlines()
+    except OSError as exc:
+        raise CommandError("cannot read the script %s: %s" % (path, exc.strerror))
+    for k, line in enumerate(lines, 1):
+        words = line.split("#", 1)[0].split()
+        if not words:
+            continue
+        try:
+            t = float(words[0])
+        except ValueError:
+            t = None
+        if t is None or len(words) not in (2, 3) or words[1] not in ACTIONS or t < 0:
+            raise CommandError("%s line %d: want 'SECONDS ACTION [ARG]' with ACTION one of %s"
+                               % (path, k, ", ".join(ACTIONS)))
+        out.append((t, words[1], words[2] if len(words) == 3 else None))
+    return sorted(out, key=lambda a: a[0])
+
+
+def run(args):
+    import os
+    import sys
+    import tempfile
+    import threading
+    import time
+
+    from desktop.cli import CommandError
+    from desktop.devicesim.virtual_handheld import InProcessHandheld, VirtualHandheld
+
+    script = read_script(args.script) if args.script else []
+    behind = []
+
+    def on_behind(lag, capacity):
+        behind.append((lag, capacity))
+        done.set()
+
+    done = threading.Event()
+    tmp = tempfile.TemporaryDirectory(prefix="fluxcal-emulate-") if args.flash is None else None
+    flash = os.path.abspath(args.flash or os.path.join(tmp.name, "flash"))
+    os.makedirs(flash, exist_ok=True)
+    if args.runtime == "cpython":
+        hh = InProcessHandheld(os.path.dirname(flash), sensor=args.sensor, seed=args.seed, on_behind=on_behind)
+    else:
+        try:
+            hh = VirtualHandheld(flash, runtime=args.runtime, sensor=args.sensor, seed=args.seed, on_behind=on_behind)
+        except FileNotFoundError as exc:
+            raise CommandError(str(exc))
+        if not args.bare:
+            _install_if_empty(hh, flash)
+    keys = _Keys(hh, done) if sys.stdin.isatty() else None
+    try:
+        hh.start()
+        print("fluxcal emulate: virtual handheld (%s, %s) on %s" % (args.runtime, args.sensor, hh.port), flush=True)
+        if keys is not None:
+            print("keys: r turn by hand, h hold, s spin, f follow the LED, p press, l long press,"
+                  " c power cycle, q quit", flush=True)
+            keys.start()
+        t0 = time.monotonic()
+        nxt = STATUS_S
+        while not done.is_set():
+            now = time.monotonic() - t0
+            while script and script[0][0] <= now:
+                _t, action, arg = script.pop(0)
+                _act(hh, action, arg)
+            if args.seconds is not None and now >= args.seconds:
+                break
+            if now >= nxt:
+                nxt += STATUS_S
+                _status(hh, now)
+            done.wait(0.05)
+    finally:
+        if keys is not None:
+            keys.stop()
+        hh.close()
+        if tmp is not None:
+            tmp.cleanup()
+    if behind:
+        lag, capacity = behind[0]
+        raise CommandError("the firmware fell %.1f s behind real time (it runs at %s real time on this machine)"
+                           % (lag, "%.2fx" % capacity if capacity else "less than 1x"))
+    return 0
+
+
+def _act(hh, action, arg):
+    from desktop.cli import CommandError
+    try:
+        hh.act(action, arg)
+    except ValueError as exc:
+        raise CommandError(str(exc))
+
+
+def _status(hh, now):
+    p = hh.pacer
+    cap = "%.1fx" % p.capacity if p is not None and p.capacity else "-"
+    who = "following the LED" if hh.hands.following else "by hand"
+    print("%6.0f s  simulated %.1f s  capacity %s real time  operator: %s (%s)"
+          % (now, hh.world.time, cap, hh.operator.mode, who), flush=True)
+
+
+def _install_if_empty(hh, flash):
+    """A flash without firmware gets it, and the board's wiring (config.json)."""
+    import os
+
+    from desktop.devicesim.runners import install_firmware
+    from desktop.firmware.files import import_device
+    entry = "code.py" if hh.runtime == "circuitpython" else "main.py"
+    if not os.path.exists(os.path.join(flash, entry)):
+        install_firmware(flash, hh.runtime)
+    store = import_device("store")
+    if store.load(flash, "config")[0] is None:
+        store.save(flash, "config", hh.wiring_config())
+
+
+class _Keys:
+    """Single keys from the terminal, while emulate runs in it (cbreak mode, restored at exit)."""
+
+    def __init__(self, hh, done):
+        self.hh = hh
+        self.done = done
+        self._old = None
+        self._thread = None
+
+    def start(self):
+        import sys
+        import termios
+        import threading
+        import tty
+        fd = sys.stdin.fileno()
+        self._old = termios.tcgetattr(fd)
+        tty.setcbreak(fd)
+        self._thread = threading.Thread(target=self._read, daemon=True)
+        self._thread.start()
+
+    def _read(self):
+        import select
+        import sys
+        while not self.done.is_set():
+            if not select.select([sys.stdin], [], [], 0.1)[0]:
+                continue
+            key = sys.stdin.read(1)
+            if key == "q":
+                self.done.set()
+            elif key in KEYS:
+                try:
+                    self.hh.act(KEYS[key])
+                except ValueError as exc:
+                    print("(%s)" % exc, flush=True)
+
+    def stop(self):
+        import sys
+        import termios
+        if self._old is not None:
+            termios.tcsetattr(sys.stdin.fileno(), termios.TCSADRAIN, self._old)
