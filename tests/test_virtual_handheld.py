@@ -190,3 +190,29 @@ def test_resets_as_a_board_resets(tmp_path):
         assert set(boots_after(lambda: run("soft-reset"))) == {"b"}
         assert boots_after(lambda: run("reset")).endswith("bm")                # hard reset: both
         assert boots_after(lambda: hh.act("power-cycle")) == "bm"
+
+
+def test_a_field_step_reaches_the_stream(tmp_path):
+    """field-step: the live world's field grows from the first moment not yet computed, and the
+    firmware's |B| follows (the sensor held still; nominal scale, so about the step itself)."""
+    world, operator = live_world(seed=3)
+    hands = Hands(world, operator)
+    hands.act("hold")
+    write_config(str(tmp_path), **handheld_config(world.scenario))
+    dev = start_device(world, str(tmp_path), kind="cpython")
+    try:
+        dev.run_until(0.3)
+        world.send(b"stream on corrected\n")
+        dev.run_until(2.0)
+        hands.step()
+        hands.act("field-step", "100")
+        hands.step()
+        t_step = hands.field_steps[0][0]
+        dev.run_until(t_step + 2.0)
+        data = [e for e in events(world, "data")]
+        before = [e["f"] for e in data if e["t"] / 1000.0 < t_step - 0.2]
+        after = [e["f"] for e in data if e["t"] / 1000.0 > t_step + 0.3]
+        assert before and after
+        assert abs(np.mean(after) - np.mean(before) - 100.0) < 5.0, (np.mean(before), np.mean(after))
+    finally:
+        dev.close()

@@ -27,6 +27,7 @@ import os
 import queue
 import subprocess
 import threading
+import time
 
 import numpy as np
 
@@ -42,7 +43,7 @@ from desktop.sim.operator import LiveOperator
 from desktop.sim.scenario import Scenario
 
 RUNTIMES = ("micropython", "micropython-float32", "micropython-reprc", "circuitpython")
-ACTIONS = ("hand", "hold", "spin", "follow", "press", "long-press", "power-cycle")
+ACTIONS = ("hand", "hold", "spin", "follow", "press", "long-press", "power-cycle", "field-step")
 _LONG_S = 2.0        # a long press (cancel: 1.5 s in device/button.py)
 
 
@@ -73,6 +74,7 @@ class Hands:
         self.world = world
         self.operator = operator
         self.following = True
+        self.field_steps = []       # (chip time the step happens, nT, wall time it was asked for)
         self._actions = queue.Queue()
 
     def act(self, action, arg=None):
@@ -96,6 +98,8 @@ class Hands:
                 w.press(float(arg) if arg else 0.2)
             elif action == "long-press":
                 w.press(_LONG_S)
+            elif action == "field-step":
+                self.field_steps.append((w.handheld.step_field(float(arg) if arg else 100.0), arg, time.monotonic()))
         if self.following:
             self.operator.set("hand" if led_says_turn(w.led_log, w.time) else "hold", w.time)
 

@@ -48,11 +48,16 @@ class Field:
         g = 0.5 * (g + g.T)
         self.gradient = gradient_nT_per_m * (g - np.trace(g) / 3.0 * np.eye(3))
         self.dipole = dipole
+        self.steps = []             # (t s, nT): from t on, B is larger by nT along its direction
+
+    def add_step(self, t, nT):
+        """From time t on, the background is `nT` larger (a live world's field step)."""
+        self.steps.append((float(t), float(nT)))
 
     @property
     def uniform(self):
-        """True when B is the same everywhere and always (no drift, gradient, dipole)."""
-        return not (self.drift or self.gradient.any() or self.dipole)
+        """True when B is the same everywhere and always (no drift, gradient, dipole, steps)."""
+        return not (self.drift or self.gradient.any() or self.dipole or self.steps)
 
     def at(self, t, position):
         """Field vectors (N, 3) nT at times t (N,) s and positions (N, 3) m."""
@@ -63,6 +68,8 @@ class Field:
             b += position @ self.gradient.T
         if self.dipole:
             b += self.dipole_field(t, position)
+        for t0, nT in self.steps:
+            b += np.outer(nT * (np.asarray(t) >= t0), self.direction)
         return b
 
     def dipole_field(self, t, position):

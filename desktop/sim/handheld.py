@@ -75,6 +75,13 @@ class Handheld:
         self.chips[0].load(v[:, :2], self.grid_rate, t0, temperature_c=grid["temp"])
         self.chips[1].load(np.c_[v[:, 2], np.zeros(len(v))], self.grid_rate, t0, temperature_c=grid["temp"])
 
+    def step_field(self, nT):
+        """Live: the field grows by `nT` along its direction from the first time not yet
+        computed on (the past does not change); returns that chip time."""
+        t = self.t0 + self._g_done / self.grid_rate
+        self._chain.field.add_step(t - self.t0, nT)
+        return t
+
     def keep_ahead(self, t):
         """Live: make sure the chips hold the analog input up to chip time t + LIVE_AHEAD_S
         (computing the next chunk, from what the operator does now, when it runs short)."""
