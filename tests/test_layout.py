@@ -27,9 +27,10 @@ RULES = {
                                                       "desktop.formats")),
     "desktop/demo": (("numpy", "matplotlib"), ("desktop.sim", "desktop.methods", "desktop.devicesim",
                                                "desktop.firmware")),
-    "desktop/bench": (("numpy",), ("shared", "desktop.sim", "desktop.methods", "desktop.devicesim",
-                                   "desktop.firmware", "desktop.formats")),
-    "desktop/cli": (("numpy", "matplotlib"), ("shared", "desktop")),
+    "desktop/bench": (("numpy", "serial"), ("shared", "desktop.sim", "desktop.methods", "desktop.devicesim",
+                                             "desktop.firmware", "desktop.formats", "desktop.link")),
+    "desktop/link": (("serial",), ()),
+    "desktop/cli": (("numpy", "matplotlib", "rich"), ("shared", "desktop")),
 }
 # the MicroPython-only modules shared/ guards with try/except ImportError
 MICROPYTHON_ONLY = {"micropython"}

@@ -1,6 +1,7 @@
 """The `fluxcal` command line: a table of sub-commands (after mpremote's main.py).
 
-Each sub-command is a module of this package (fit.py, correct.py, ...) with
+Each sub-command is a module of this package (fit.py, correct.py, pull-cal is
+pull_cal.py, ...; modules starting with _ are helpers the commands share) with
 ``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int``; what
 only one command needs (the simulator, the firmware runner, matplotlib) is
 imported inside its ``run``, so `fluxcal fit` does not pay for the others. A handler raises
@@ -15,7 +16,9 @@ import sys
 
 from desktop.formats import FormatError
 
-COMMANDS = ("fit", "correct", "demo", "simulate", "experiment")
+COMMANDS = ("fit", "correct", "demo", "simulate", "experiment",
+            "status", "calibrate", "monitor", "capture", "pull-cal", "push-cal", "report", "emulate",
+            "deploy")
 
 
 class CommandError(Exception):
@@ -30,7 +33,7 @@ def build_parser():
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMANDS:
-        module = importlib.import_module("desktop.cli." + name)
+        module = importlib.import_module("desktop.cli." + name.replace("-", "_"))
         p = sub.add_parser(name, help=module.HELP, description=module.HELP)
         module.add_arguments(p)
         p.set_defaults(_run=module.run)

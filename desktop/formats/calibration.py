@@ -2,6 +2,8 @@
 
 import json
 
+import numpy as np
+
 from desktop.formats import FormatError
 from shared.calibration import Calibration
 
@@ -28,3 +30,54 @@ def save_calibration(path, cal):
             fh.write("\n")
     except OSError as exc:
         raise FormatError("%s: %s" % (path, exc.strerror or exc))
+
+
+# ****** units and plausibility (fluxcal pull-cal / push-cal / report) ******
+# A device's calibration takes ADC codes (docs/protocol.md): meta["units"] says so on the
+# files pull-cal writes. A calibration without it takes nT, as `fluxcal fit` writes them.
+CODE_UNITS = "codes"
+FIELD_RANGE_NT = (1000.0, 100000.0)   # the Earth's field is 22,000-67,000 nT
+
+
+def takes_codes(cal):
+    return cal.meta.get("units") == CODE_UNITS
+
+
+def to_code_units(cal, nT_per_code):
+    """A calibration of nT readings h = k n as one of codes n: M K, b / k (K = diag(k))."""
+    if takes_codes(cal):
+        return cal
+    k = [float(v) for v in nT_per_code]
+    matrix = [[row[j] * k[j] for j in range(3)] for row in cal.matrix]
+    return Calibration(matrix, [b / kj for b, kj in zip(cal.offset, k)], cal.field, cal.diagnostics,
+                       dict(cal.meta, units=CODE_UNITS, scale=k))
+
+
+def to_nT_units(cal, nT_per_code):
+    """A calibration of codes n as one of nT readings h = k n: M K^-1, k b."""
+    if not takes_codes(cal):
+        return cal
+    k = [float(v) for v in nT_per_code]
+    matrix = [[row[j] / k[j] for j in range(3)] for row in cal.matrix]
+    meta = {key: v for key, v in cal.meta.items() if key != "units"}
+    return Calibration(matrix, [b * kj for b, kj in zip(cal.offset, k)], cal.field, cal.diagnostics, meta)
+
+
+def plausibility_problem(cal):
+    """Why a calibration cannot be a sensor's (one line), or None.
+
+    Calibration.from_dict has refused non-finite values and a matrix whose
+    determinant is not positive; here: the matrix must be positive definite
+    (x.M x > 0 for every x: no axis reversed or swapped) and the field one the
+    Earth has.
+    """
+    m = np.asarray(cal.matrix, dtype=float)
+    low = float(np.linalg.eigvalsh((m + m.T) / 2).min())
+    if not low > 0:
+        return "matrix is not positive definite (smallest eigenvalue of its symmetric part %.3g): " \
+               "an axis reversed or swapped" % low
+    lo, hi = FIELD_RANGE_NT
+    if not lo <= cal.field <= hi:
+        return "field %.6g nT is implausible: the Earth's is 22,000-67,000 nT, fluxcal accepts %s-%s nT" % (
+            cal.field, format(int(lo), ","), format(int(hi), ","))
+    return None

@@ -25,6 +25,19 @@ position            (N, 3) float64  sensor position, m (world: x north, y east, 
 temperature_c       (N,) float64    true temperature, C
 ==================  ==============  ===============================================
 
+A recording from a handheld (`fluxcal capture`, the firmware's `raw` stream)
+has no chip registers and no truth; its samples are the firmware's decimated
+samples (the mean codes of each boxcar), not single conversions:
+
+==================  ==============  ===============================================
+codes               (N, 3) float64  mean raw codes of X, Y, Z per sample
+t                   (N,) float64    device time of each output, s since the first (ms steps;
+                                    samples sent in one pass of the main loop may share one)
+nT_per_code         (3,) float64    the device's front-end scale (config scale_x/y/z)
+die_temperature_c   (N,) float64    ADS1292 die temperature, C (as the device reports)
+config              () str          JSON: the device's version reply, config, port
+==================  ==============  ===============================================
+
 Stored without compression: ADC codes are noise in their low bits, so zlib
 saves 40 % of the file at 25 times the cost of writing it (a 10 min capture
 at 4000 SPS: 58 MB in 0.1 s, or 35 MB in 2.5 s). ``field_nT`` gives the
@@ -48,9 +61,22 @@ def save_capture(path, capture):
     if missing:
         raise ValueError("capture lacks %s" % ", ".join(missing))
     keys = KEYS + tuple(k for k in TRUTH_KEYS if k in capture)
+    _savez(path, {k: np.asarray(capture[k]) for k in keys})
+
+
+def save_recording(path, codes, t, nT_per_code, die_temperature_c, config):
+    """Write a handheld's recording (keys above); `config` is a JSON-ready dict."""
+    arrays = {"codes": np.asarray(codes, dtype=float).reshape(-1, 3), "t": np.asarray(t, dtype=float),
+              "nT_per_code": np.asarray(nT_per_code, dtype=float),
+              "die_temperature_c": np.asarray(die_temperature_c, dtype=float),
+              "config": np.array(json.dumps(config))}
+    _savez(path, arrays)
+
+
+def _savez(path, arrays):
     try:
         with open(path, "wb") as fh:
-            np.savez(fh, **{k: np.asarray(capture[k]) for k in keys})
+            np.savez(fh, **arrays)
     except OSError as exc:
         raise FormatError("%s: %s" % (path, exc.strerror or exc))
 
@@ -84,7 +110,9 @@ def load_field_nT(path):
 
 
 def temperature_from_codes(capture):
-    """(N,) die temperature (C) read back from chip B's CH2 codes [DS Eq.3]."""
+    """(N,) die temperature (C) read back from chip B's CH2 codes [DS Eq.3], or as a handheld reported it."""
+    if "die_temperature_c" in capture:
+        return np.asarray(capture["die_temperature_c"], dtype=float)
     cfg = Config(capture["registers"][1])
     return volts_to_temperature(codes_to_volts(capture["codes"][:, 3], cfg.gain[1], cfg.vref))
 

@@ -1,0 +1,157 @@
+"""What `fluxcal calibrate` shows and hears: a live board (rich) or plain lines, and the keys.
+
+Not a command (COMMANDS does not list it).
+"""
+
+import os
+import select
+import sys
+import time
+
+
+class Lines:
+    """Not a terminal: one line per progress event."""
+
+    wants_map = False
+
+    def __init__(self, cfg):
+        self.cfg = cfg
+        self.start = time.monotonic()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def update(self, ev, coverage):
+        print("%6.1f s  %s" % (time.monotonic() - self.start, progress_line(ev, self.cfg)), flush=True)
+
+
+def progress_line(ev, cfg, sep="  "):
+    pred = "--" if ev.get("pred_nt") is None else "%.3f" % ev["pred_nt"]
+    return "coverage %3.0f %% (needs %.0f %%)  samples %5d%spredicted error %s nT (needs <= %g)%s" % (
+        100 * (ev.get("coverage") or 0), 100 * cfg["min_coverage"], ev.get("n", 0), sep, pred,
+        cfg["target_error_nt"], "  READY" if ev.get("ready") else "")
+
+
+class Board:
+    """A terminal: progress bar, figures and the coverage map, redrawn in place (rich)."""
+
+    wants_map = True
+
+    def __init__(self, cfg, auto):
+        from rich.console import Console
+        from rich.live import Live
+
+        self.cfg = cfg
+        self.auto = auto
+        self.live = Live(console=Console(), refresh_per_second=4)
+
+    def __enter__(self):
+        self.live.__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        return self.live.__exit__(*exc)
+
+    def update(self, ev, coverage):
+        from rich.console import Group
+        from rich.progress_bar import ProgressBar
+        from rich.table import Table
+        from rich.text import Text
+
+        cfg = self.cfg
+        cov = ev.get("coverage") or 0.0
+        bar = Table.grid(padding=(0, 1))
+        bar.add_row(ProgressBar(total=1.0, completed=min(1.0, cov / cfg["min_coverage"]), width=50),
+                    Text("READY" if ev.get("ready") else "collecting", style="bold green" if ev.get("ready") else ""))
+        parts = [Text("Turn the handheld slowly about every axis.", style="bold"), bar,
+                 Text(progress_line(ev, cfg, sep="\n")),
+                 Text("refused: turning too fast %d, disturbance %d, cell full %d; removed %d" % (
+                     ev.get("rej_rate", 0), ev.get("rej_dist", 0), ev.get("rej_cap", 0), ev.get("removed", 0)),
+                     style="dim")]
+        if coverage:
+            parts.append(coverage_map(coverage["counts"], coverage["cells_per_edge"], cfg["cell_cap"]))
+        parts.append(Text("waiting for the firmware to finish by itself" if self.auto else
+                          "f / Enter: finish    c / Esc: cancel", style="italic"))
+        self.live.update(Group(*parts))
+
+
+def coverage_map(counts, edge, cap):
+    """The six cube faces of cells, coloured by how full each is (grey empty, yellow, green at the cap)."""
+    from rich.text import Text
+
+    from desktop.cli._show import FACES, coverage_rows
+
+    text = Text()
+    text.append("".join(f.ljust(2 * edge + 1) for f in FACES).rstrip() + "\n", style="bold")
+    for row in coverage_rows(counts, edge, cap):
+        for cell in row:
+            if cell is None:
+                text.append(" ")
+            else:
+                fill = cell[1]
+                text.append("\u2588\u2588", style="grey30" if fill == 0 else "green" if fill >= 1 else
+                            "yellow" if fill >= 0.5 else "dark_orange")
+        text.append("\n")
+    return text
+
+
+class Keys:
+    """finish / cancel from the keyboard: single keys on a terminal, lines from a pipe.
+
+    f or Enter finishes; c, q or Esc cancels. Disabled (--auto), or at the end
+    of a pipe, read() says nothing. `pending` is an action queued by the caller.
+    """
+
+    def __init__(self, enabled):
+        self.pending = None
+        self.fd = None
+        self._saved = None
+        if enabled and sys.stdin is not None and not sys.stdin.closed:
+            self.fd = sys.stdin.fileno()
+
+    def __enter__(self):
+        if self.fd is not None and os.isatty(self.fd) and os.name != "nt":
+            import termios
+            import tty
+
+            self._saved = termios.tcgetattr(self.fd)
+            tty.setcbreak(self.fd)
+        return self
+
+    def __exit__(self, *exc):
+        if self._saved is not None:
+            import termios
+
+            termios.tcsetattr(self.fd, termios.TCSADRAIN, self._saved)
+        return False
+
+    def read(self):
+        action, self.pending = self.pending, None
+        if action or self.fd is None:
+            return action
+        data = self._windows_key() if os.name == "nt" else self._posix_keys()
+        if data is None:
+            return None
+        data = data.lower()
+        if not data:
+            self.fd = None      # end of the pipe: no more keys
+            return None
+        if any(c in data for c in (b"c", b"q", b"\x1b")):
+            return "cancel"
+        if b"f" in data or b"\n" in data or b"\r" in data:
+            return "finish"
+        return None
+
+    def _posix_keys(self):
+        if not select.select([self.fd], [], [], 0)[0]:
+            return None
+        return os.read(self.fd, 64)
+
+    @staticmethod
+    def _windows_key():
+        import msvcrt   # Windows consoles: select() does not take stdin there
+
+        return msvcrt.getwch().encode("ascii", "replace") if msvcrt.kbhit() else None

@@ -1,0 +1,81 @@
+"""monitor --plot: |B| over time, the raw point cloud, and the sphere's cells visited (matplotlib).
+
+Not a command (COMMANDS does not list it). The cells are shared/coverage.py's,
+counted from the directions of the corrected field (raw: of the readings,
+whose offset is small beside the Earth's field).
+"""
+
+import time
+
+REDRAW_S = 0.5
+MAX_POINTS = 4000
+
+
+class LivePlot:
+    def __init__(self, cells, scale, kind):
+        import matplotlib.pyplot as plt
+
+        from desktop.cli._show import cell_directions
+        from shared.coverage import Coverage
+
+        self.plt = plt
+        self.scale = scale
+        self.coverage = Coverage(cells)
+        self.cells = cell_directions(cells)
+        self.t, self.b, self.points = [], [], []
+        self.next_draw = 0.0
+        plt.ion()
+        self.fig = plt.figure("fluxcal monitor", figsize=(13, 4.5))
+        self.ax_b = self.fig.add_subplot(1, 3, 1)
+        self.ax_cloud = self.fig.add_subplot(1, 3, 2, projection="3d")
+        self.ax_cov = self.fig.add_subplot(1, 3, 3, projection="3d")
+        self.kind = kind
+        self.closed = False
+        self.fig.canvas.mpl_connect("close_event", self._on_close)
+
+    def _on_close(self, _event):
+        self.closed = True
+
+    def update(self, t, value, ev):
+        """Take a sample; redraw now and then. False once the window is closed."""
+        self.t.append(t)
+        self.b.append(value)
+        c = ev.get("c")
+        if c and None not in c:
+            p = [ci * k for ci, k in zip(c, self.scale)]
+            self.points.append(p)
+            d = ev.get("b") or p
+            if any(d):
+                self.coverage.add_to(self.coverage.cell(*d))
+        now = time.monotonic()
+        if now >= self.next_draw:
+            self.next_draw = now + REDRAW_S
+            self._draw()
+            self.plt.pause(0.001)
+        return not self.closed
+
+    def _draw(self):
+        ax = self.ax_b
+        ax.clear()
+        ax.plot(self.t, self.b, lw=0.8)
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("%s |B| (nT)" % self.kind)
+        ax.set_title("|B|")
+        pts = self.points[-MAX_POINTS:]
+        ax = self.ax_cloud
+        ax.clear()
+        if pts:
+            xs, ys, zs = zip(*pts)
+            ax.scatter(xs, ys, zs, s=2, c=range(len(pts)), cmap="viridis")
+        ax.set_box_aspect((1, 1, 1))
+        ax.set_title("raw readings (nT)")
+        ax = self.ax_cov
+        ax.clear()
+        counts = self.coverage.counts
+        seen = [d for d, n in zip(self.cells, counts) if n]
+        empty = [d for d, n in zip(self.cells, counts) if not n]
+        for group, colour in ((seen, "tab:green"), (empty, "lightgrey")):
+            if group:
+                ax.scatter(*zip(*group), s=60, c=colour, depthshade=False)
+        ax.set_box_aspect((1, 1, 1))
+        ax.set_title("sphere covered: %.0f %% of cells" % (100 * self.coverage.fraction()))

@@ -1,0 +1,74 @@
+"""fluxcal capture --seconds S -o FILE.npz: record the handheld's raw samples for offline fitting.
+
+The firmware's `raw` stream gives block means of its decimated samples at
+survey_hz. For the duration of the capture survey_hz is set to the sample rate
+(rate / decim, 100 Hz by default), so every sample the calibration gates would
+see is recorded as it is (a 0.1 s mean of vectors would shrink |B| while the
+sensor turns, docs/simulator.md), then set back. The file is a recording in
+desktop/formats/capture.py's format: `fluxcal fit FILE.npz -o CAL.json` fits it.
+"""
+
+import sys
+import time
+
+from desktop.cli import CommandError
+from desktop.cli._device import (add_port_arguments, connected, device_config, nT_per_code, quietly,
+                                 stream_events, unwrap_ms)
+
+HELP = "record the handheld's raw samples (codes, temperature) to a capture file fluxcal fit reads"
+
+
+def add_arguments(p):
+    p.add_argument("--seconds", type=float, required=True, metavar="S", help="how long to record")
+    p.add_argument("-o", "--output", required=True, metavar="FILE.npz", help="capture file to write")
+    p.add_argument("--hz", type=int, default=None,
+                   help="samples per second (default: the device's decimated rate, at most 100)")
+    add_port_arguments(p)
+
+
+def run(args):
+    from desktop.formats.capture import save_recording
+
+    if not 0 < args.seconds <= 24 * 3600:
+        raise CommandError("--seconds must be in (0, 86400]")
+    with connected(args) as dev:
+        cfg = device_config(dev)
+        hz = args.hz or max(1, min(100, round(cfg["rate"] / cfg["decim"])))
+        stream_before = dev.ask("status")["stream"]
+        if hz != cfg["survey_hz"]:
+            dev.ask("config set survey_hz %d" % hz)
+        try:
+            dev.ask("stream raw")
+            events = _record(dev, args.seconds, hz)
+        finally:
+            quietly(dev, "stream %s" % stream_before)
+            if hz != cfg["survey_hz"]:
+                quietly(dev, "config set survey_hz %d" % cfg["survey_hz"])
+    if len(events) < 2:
+        raise CommandError("only %d samples in %g s: nothing written" % (len(events), args.seconds))
+    t = unwrap_ms([e["t"] for e in events], 1.0 / hz)
+    meta = {"source": "fluxcal capture", "port": dev.port, "version": dev.info, "survey_hz": hz,
+            "device_config": cfg}
+    save_recording(args.output, [e["c"] for e in events], t, nT_per_code(cfg), [e["temp"] for e in events], meta)
+    temps = [e["temp"] for e in events]
+    print("wrote %s: %d samples over %.1f s at %d Hz, die %.2f..%.2f C; fit it with "
+          "`fluxcal fit %s -o CAL.json`" % (args.output, len(events), t[-1], hz, min(temps), max(temps), args.output))
+    return 0
+
+
+def _record(dev, seconds, hz):
+    """The raw events for `seconds`, with a progress bar on a terminal."""
+    silence = max(3.0, 5.0 / hz)
+    if not sys.stdout.isatty():
+        return list(stream_events(dev, "raw", seconds, silence))
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    events = []
+    start = time.monotonic()
+    with Progress(TextColumn("capturing"), BarColumn(), TextColumn("{task.fields[n]} samples"),
+                  TimeRemainingColumn(), transient=True) as bar:
+        task = bar.add_task("capture", total=seconds, n=0)
+        for ev in stream_events(dev, "raw", seconds, silence):
+            events.append(ev)
+            bar.update(task, completed=time.monotonic() - start, n=len(events))
+    return events

@@ -1,0 +1,37 @@
+"""fluxcal pull-cal -o CAL.json: the calibration in force on the handheld, validated, to a file."""
+
+from desktop.cli import CommandError
+from desktop.cli._device import add_port_arguments, connected, device_config, nT_per_code
+
+HELP = "save the handheld's calibration in force to a JSON file (in ADC code units)"
+
+
+def add_arguments(p):
+    p.add_argument("-o", "--output", required=True, metavar="CAL.json", help="calibration JSON to write")
+    add_port_arguments(p)
+
+
+def run(args):
+    from desktop.cli._show import calibration_lines
+    from desktop.formats.calibration import CODE_UNITS, plausibility_problem, save_calibration
+    from shared.calibration import Calibration
+
+    with connected(args) as dev:
+        record = dev.ask("get-cal")["cal"]
+        scale = nT_per_code(device_config(dev))
+    if record is None:
+        raise CommandError("the handheld on %s holds no calibration (fluxcal calibrate first)" % dev.port)
+    try:
+        cal = Calibration.from_dict(record)
+    except ValueError as exc:
+        raise CommandError("the handheld sent an invalid calibration: %s" % exc)
+    problem = plausibility_problem(cal)
+    if problem:
+        raise CommandError("the handheld's calibration is not plausible, not written: %s" % problem)
+    cal.meta["units"] = CODE_UNITS
+    cal.meta.setdefault("scale", scale)
+    save_calibration(args.output, cal)
+    print("wrote %s (from %s; h_c = matrix (codes - offset), nT)" % (args.output, dev.port))
+    for line in calibration_lines(record):
+        print("  " + line)
+    return 0

@@ -1,0 +1,130 @@
+"""fluxcal report CAPTURE [--cal CAL.json] -o DIR: what a capture and its calibration look like.
+
+Writes DIR/summary.md and four PNGs (_report_figures.py): the raw readings on
+their ellipsoid beside the corrected ones on their sphere, |B| before and
+after over time, the coverage of the sphere (shared/coverage.py's cells) and
+the histogram of the residuals |h_c| - field. Without --cal the capture is
+fitted here first (--method, the device's own streaming fit by default, on at
+most FIT_MAX samples spread over the capture).
+"""
+
+import os
+
+from desktop.cli import CommandError
+from desktop.methods import METHODS
+
+HELP = "PNG plots and a markdown summary of a capture: raw ellipsoid vs corrected sphere, |B|, coverage, residuals"
+FIT_MAX = 20000          # samples the report's own fit takes (the streaming fit is pure Python)
+COVERAGE_MAX = 50000     # samples counted into the coverage cells
+CELLS = 4                # cells per cube-face edge: the firmware's default (96 cells)
+
+
+def add_arguments(p):
+    p.add_argument("capture", help="capture .npz (fluxcal capture or simulate) or CSV with x,y,z in nT")
+    p.add_argument("--cal", metavar="CAL.json", help="calibration (fluxcal fit or pull-cal); default: fit here")
+    p.add_argument("--method", choices=METHODS, default="streaming", help="the fit without --cal")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder for summary.md and the PNGs")
+
+
+def run(args):
+    import numpy as np
+
+    from desktop.cli._report_figures import write_figures
+    from desktop.formats.readings import read_raw
+    from desktop.methods import correct_array
+
+    h = read_raw(args.capture)
+    capture = _capture_arrays(args.capture)
+    cal, source = _calibration(args, h, capture)
+    try:
+        os.makedirs(args.output, exist_ok=True)
+    except OSError as exc:
+        raise CommandError("%s: %s" % (args.output, exc.strerror or exc))
+    corrected = correct_array(cal, h)
+    t = capture["t"] if capture is not None and len(capture.get("t", ())) == len(h) else np.arange(len(h), dtype=float)
+    counts = _coverage(corrected)
+    figures = write_figures(args.output, h, corrected, t, cal, counts, CELLS)
+    summary = os.path.join(args.output, "summary.md")
+    try:
+        with open(summary, "w") as fh:
+            fh.write(_summary(args.capture, h, corrected, t, cal, source, counts, figures, capture is not None))
+    except OSError as exc:
+        raise CommandError("%s: %s" % (summary, exc.strerror or exc))
+    resid = np.linalg.norm(corrected, axis=1) - cal.field
+    print("wrote %s and %d plots: %d samples, corrected |B| peak-to-peak %.3f nT, residual rms %.3f nT"
+          % (summary, len(figures), len(h), np.ptp(resid), np.sqrt(np.mean(resid ** 2))))
+    return 0
+
+
+def _capture_arrays(path):
+    if not path.endswith(".npz"):
+        return None
+    from desktop.formats.capture import load_capture
+    return load_capture(path)
+
+
+def _calibration(args, h, capture):
+    """(Calibration taking nT, where it came from)."""
+    from desktop.formats.calibration import load_calibration, takes_codes, to_nT_units
+    from desktop.methods import fit_array
+    from shared.fit import FitError
+
+    if args.cal:
+        cal = load_calibration(args.cal)
+        if takes_codes(cal):
+            if capture is None:
+                raise CommandError("%s takes ADC codes; %s has no nT_per_code to convert it (use a .npz)"
+                                   % (args.cal, args.capture))
+            cal = to_nT_units(cal, capture["nT_per_code"])
+        return cal, "`%s`" % args.cal
+    step = max(1, len(h) // FIT_MAX)
+    try:
+        cal = fit_array(h[::step], args.method)
+    except FitError as exc:
+        raise CommandError("%s: the fit failed (%s): %s" % (args.capture, exc.reason, exc.message))
+    except (ValueError, ArithmeticError) as exc:
+        raise CommandError("%s: the fit failed (%s): %s" % (args.capture, args.method, exc))
+    return cal, "fitted here (%s, %d of %d samples)" % (args.method, len(h[::step]), len(h))
+
+
+def _coverage(corrected):
+    from shared.coverage import Coverage
+
+    cov = Coverage(CELLS)
+    step = max(1, len(corrected) // COVERAGE_MAX)
+    for x, y, z in corrected[::step].tolist():
+        if x or y or z:
+            cov.add(x, y, z)
+    return list(cov.counts)
+
+
+def _summary(path, h, corrected, t, cal, source, counts, figures, timed):
+    import numpy as np
+
+    raw = np.linalg.norm(h, axis=1)
+    mag = np.linalg.norm(corrected, axis=1)
+    resid = mag - cal.field
+    d = cal.diagnostics
+
+    def figs(x):
+        return "mean %.3f nT, peak-to-peak %.3f nT, std %.3f nT" % (x.mean(), np.ptp(x), x.std())
+
+    rows = [("samples", "%d" % len(h) + (" over %.1f s" % (t[-1] - t[0]) if timed else "")),
+            ("calibration", source),
+            ("field of the calibration", "%.3f nT" % cal.field),
+            ("raw \\|B\\|", figs(raw)),
+            ("corrected \\|B\\|", figs(mag)),
+            ("residual \\|h_c\\| - field", "rms %.3f nT, largest %.3f nT" % (np.sqrt(np.mean(resid ** 2)),
+                                                                            np.abs(resid).max())),
+            ("sphere covered", "%.0f %% of %d cells" % (100.0 * sum(1 for c in counts if c) / len(counts),
+                                                       len(counts)))]
+    for key, label, fmt in (("predicted_error", "predicted full-sphere error", "%.3f nT"),
+                            ("observability", "observability", "%.3f"), ("rms", "fit residual rms", "%.3f nT")):
+        if d.get(key) is not None:
+            rows.append((label, fmt % d[key]))
+    out = ["# fluxcal report: `%s`" % os.path.basename(path), "", "| | |", "|---|---|"]
+    out += ["| %s | %s |" % r for r in rows]
+    out.append("")
+    for name, title in figures:
+        out += ["## %s" % title, "", "![%s](%s)" % (title, name), ""]
+    return "\n".join(out)

@@ -1,0 +1,59 @@
+"""fluxcal status [--port P]: what the handheld is doing and which calibration is in force."""
+
+import json
+
+from desktop.cli._device import add_port_arguments, connected
+
+HELP = "the handheld's firmware, calibration in force, acquisition health and faults"
+
+
+def add_arguments(p):
+    add_port_arguments(p)
+    p.add_argument("--json", action="store_true", help="print the device's replies as one JSON object")
+
+
+def run(args):
+    from desktop.cli._show import SOURCES, calibration_lines
+
+    with connected(args) as dev:
+        st = dev.ask("status")
+        cal = dev.ask("get-cal")["cal"]
+    if args.json:
+        print(json.dumps({"port": dev.port, "version": dev.info, "status": st, "cal": cal}, indent=1))
+        return 0
+    v = dev.info
+    print("fluxcal firmware %s on %s: protocol %s, runtime %s (%s)"
+          % (v.get("fw"), dev.port, v.get("proto"), v.get("runtime"), v.get("impl")))
+    state = "%s, up %.1f s, stream %s" % (st.get("state"), st.get("uptime_ms", 0) / 1000.0, st.get("stream"))
+    if st.get("temp") is not None:
+        state += ", ADC die %.2f C" % st["temp"]
+    print("state: " + state)
+    if cal is None:
+        print("calibration: none in force (fluxcal calibrate, or push one with fluxcal push-cal)")
+    else:
+        print("calibration: in force, %s" % SOURCES.get(st.get("cal_source"), st.get("cal_source")))
+        for line in calibration_lines(cal, st):
+            print("  " + line)
+    if st.get("temp_warn"):
+        print("  warning: the temperature differs from the calibration's by more than temp_warn_c")
+    if st.get("cal_problem"):
+        print("  stored calibration refused at boot: %s" % st["cal_problem"])
+    if "frames" in st:
+        print("acquisition: %d frames, %d samples; dropped: %d ring overflows, %d missed conversions, "
+              "%d discarded blocks, %d bad status headers, %d gaps"
+              % (st["frames"], st["samples"], st["overflow"], st["missed"], st["discarded"], st["badsync"],
+                 st["gaps"]))
+    faults = [st["fault"]] if st.get("fault") else []
+    faults += ["config: %s" % p for p in st.get("config_problems") or []]
+    if (st.get("log") or {}).get("error"):
+        faults.append("log: %s" % st["log"]["error"])
+    print("faults: " + ("; ".join(faults) if faults else "none"))
+    last = st.get("last_cal")
+    if last:
+        extra = " (%s)" % last["reason"] if last.get("reason") else ""
+        print("last calibration since boot: %s%s%s" % (last.get("state"), extra,
+                                                      ": " + last["msg"] if last.get("msg") else ""))
+    if st.get("cal"):
+        c = st["cal"]
+        print("calibrating now: %d samples, coverage %.0f %%" % (c.get("n", 0), 100 * (c.get("coverage") or 0)))
+    return 0

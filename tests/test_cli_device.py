@@ -1,0 +1,369 @@
+"""The handheld from the laptop: `fluxcal status/calibrate/monitor/capture/pull-cal/push-cal/report`
+as a user runs them, in a subprocess, against firmware answering on a real pseudo-terminal in
+real time (tests/realtime.py: in this process, fast; one test against `fluxcal emulate`, the
+board's own HAL in the real micropython), and every kind of bad input (one line, non-zero exit,
+no traceback, no hang). Nothing is mocked: where a test needs a device that misbehaves (another
+protocol version, only noise on the line) it is a few lines of Python behind a real pty.
+"""
+
+import json
+import math
+import os
+import pty
+import select
+import subprocess
+import sys
+import threading
+import time
+import tty
+
+import numpy as np
+import pytest
+import serial
+
+from desktop.link.lines import LineReader
+from tests.device_bounds import spin_ptp_bound
+from tests.realtime import LiveHandheld
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+NO_HANG_S = 60      # any fluxcal run here that takes longer has hung
+
+
+def fluxcal(*args, timeout=NO_HANG_S, keys="", **env):
+    """Run fluxcal ARGS in a subprocess, `keys` on its standard input (a pipe)."""
+    return subprocess.run([sys.executable, "-m", "desktop", *map(str, args)], capture_output=True, text=True,
+                          cwd=ROOT, timeout=timeout, input=keys, env=dict(os.environ, **env))
+
+
+def ok(proc):
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr
+    return proc.stdout
+
+
+def fails_in_one_line(proc, *words):
+    assert proc.returncode != 0, proc.stdout
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("fluxcal: ") and "Traceback" not in proc.stderr, proc.stderr
+    for w in words:
+        assert w in lines[0], lines[0]
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def handheld(tmp_path_factory):
+    """One live handheld turned by hand for the tests that do not need a fresh one."""
+    with LiveHandheld(tmp_path_factory.mktemp("handheld"), motion="hand", seconds=120, seed=4) as hh:
+        yield hh
+        assert hh.error is None
+
+
+# ****** a live device ******
+def test_status_reports_firmware_calibration_and_health(handheld):
+    out = ok(fluxcal("status", "--port", handheld.port))
+    assert "fluxcal firmware 0.1.0 on %s: protocol 1" % handheld.port in out
+    assert "acquisition:" in out and "0 ring overflows" in out and "faults: none" in out
+    d = json.loads(ok(fluxcal("status", "--json", "--port", handheld.port)))
+    assert d["version"]["proto"] == 1 and d["status"]["state"] == "survey" and d["status"]["frames"] > 0
+
+
+def test_calibrate_auto_then_pull_cal_agrees_with_a_numpy_fit(tmp_path):
+    from desktop.formats.calibration import load_calibration, to_nT_units
+    from desktop.formats.capture import field_nT, load_capture
+    from desktop.methods import fit_array, magnitudes
+
+    with LiveHandheld(tmp_path / "hh", motion="hand", seconds=60, seed=7) as hh:
+        t0 = time.monotonic()
+        out = ok(fluxcal("calibrate", "--auto", "--port", hh.port))
+        took = time.monotonic() - t0
+        assert "coverage" in out and "READY" in out                   # progress lines, piped
+        assert "+X" in out and "-Z" in out                             # the coverage map
+        assert "calibration done: field" in out and "saved, in force" in out and "replaced: no calibration" in out
+        assert took < 25, "auto-finish took %.0f s of rotation" % took
+        ok(fluxcal("pull-cal", "-o", tmp_path / "device.json", "--port", hh.port))
+        ok(fluxcal("capture", "--seconds", 5, "-o", tmp_path / "after.npz", "--port", hh.port))
+        out = ok(fluxcal("monitor", "--seconds", 3, "--port", hh.port))
+        scenario = hh.world.scenario
+    # the device's calibration against a numpy reference fitted to samples recorded afterwards:
+    # the two agree on every sample within the firmware's verification bound (tests/device_bounds.py)
+    bound = spin_ptp_bound(scenario, 36)
+    cap = load_capture(tmp_path / "after.npz")
+    h = field_nT(cap)
+    device = to_nT_units(load_calibration(tmp_path / "device.json"), cap["nT_per_code"])
+    reference = fit_array(h, "algebraic")
+    diff = magnitudes(device, h) - magnitudes(reference, h)
+    assert abs(device.field - reference.field) < bound
+    assert np.sqrt(np.mean(diff ** 2)) < bound
+    # monitor: the calibrated |B| while the hand keeps turning
+    ptp = float(out.strip().splitlines()[-1].split("peak-to-peak ")[1].split(" nT")[0])
+    assert ptp < 4 * bound, out
+
+
+@pytest.mark.parametrize("keys, words", [("c\n", ("calibration cancelled", "previous calibration stays")),
+                                         ("f\n", ("calibration failed (too_few_samples)",))])
+def test_calibrate_finished_or_cancelled_from_the_keyboard(handheld, keys, words):
+    fails_in_one_line(fluxcal("calibrate", "--port", handheld.port, keys=keys), *words)
+    assert json.loads(ok(fluxcal("status", "--json", "--port", handheld.port)))["status"]["state"] == "survey"
+
+
+def test_push_cal_round_trip_and_the_firmware_s_refusal(handheld, tmp_path):
+    from desktop.formats.calibration import load_calibration, to_code_units
+
+    k = 0.0144243258    # nT per code: device/config.py's scale_x/y/z
+    fitted = {"matrix": [[1.001, 0.002, 0], [0.002, 0.998, 0], [0, 0, 1.0]], "offset": [120.0, -35.5, 60.25],
+              "field": 47200.0, "diagnostics": {"rms": 0.2, "n": 900}, "meta": {"method": "streaming"}}
+    (tmp_path / "fitted.json").write_text(json.dumps(fitted))
+    out = ok(fluxcal("push-cal", tmp_path / "fitted.json", "--port", handheld.port))
+    assert "converted from nT" in out
+    ok(fluxcal("pull-cal", "-o", tmp_path / "a.json", "--port", handheld.port))
+    ok(fluxcal("push-cal", tmp_path / "a.json", "--port", handheld.port))
+    ok(fluxcal("pull-cal", "-o", tmp_path / "b.json", "--port", handheld.port))
+    a, b = load_calibration(tmp_path / "a.json"), load_calibration(tmp_path / "b.json")
+    expect = to_code_units(load_calibration(tmp_path / "fitted.json"), [k] * 3)
+    for cal in (a, b):
+        assert np.allclose(cal.matrix, expect.matrix, rtol=1e-12) and np.allclose(cal.offset, expect.offset, rtol=1e-12)
+        assert cal.field == 47200.0 and cal.meta["units"] == "codes"
+    # plausible here, refused by the firmware's own checks: a gain 10x the front end's
+    (tmp_path / "ten.json").write_text(json.dumps(dict(fitted, matrix=[[10, 0, 0], [0, 1, 0], [0, 0, 1]])))
+    fails_in_one_line(fluxcal("push-cal", tmp_path / "ten.json", "--port", handheld.port), "bad_scale")
+    ok(fluxcal("pull-cal", "-o", tmp_path / "c.json", "--port", handheld.port))
+    assert np.allclose(load_calibration(tmp_path / "c.json").matrix, a.matrix)   # the previous one stays
+
+
+def test_capture_then_fit_offline_then_report(handheld, tmp_path):
+    cap, cal, rep = tmp_path / "field.npz", tmp_path / "cal.json", tmp_path / "report"
+    out = ok(fluxcal("capture", "--seconds", 6, "-o", cap, "--port", handheld.port))
+    assert "at 100 Hz" in out
+    from desktop.formats.capture import load_capture
+    c = load_capture(cap)
+    # device times of the outputs: samples drained in one pass of the main loop may share a millisecond
+    assert c["codes"].shape[1] == 3 and 500 <= len(c["codes"]) <= 700 and np.all(np.diff(c["t"]) >= 0)
+    assert np.median(np.diff(c["t"])) == pytest.approx(0.01, abs=0.002)
+    assert np.allclose(c["die_temperature_c"], 25.0, atol=0.2) and c["config"]["survey_hz"] == 100
+    assert c["config"]["device_config"]["survey_hz"] == 10
+    assert json.loads(ok(fluxcal("status", "--json", "--port", handheld.port)))["status"]["stream"] == "off"
+    out = ok(fluxcal("fit", cap, "-o", cal))
+    assert "streaming: " in out
+    d = json.loads(cal.read_text())
+    assert 40000 < d["field"] < 56000 and d["diagnostics"]["rms"] < 1.0
+    for extra in ([], ["--cal", cal]):
+        out = ok(fluxcal("report", cap, "-o", rep, *extra))
+        names = {"summary.md", "ellipsoid.png", "magnitude.png", "coverage.png", "residuals.png"}
+        assert names <= set(os.listdir(rep))
+        assert all((rep / n).stat().st_size > 10000 for n in names if n.endswith(".png"))
+        summary = (rep / "summary.md").read_text()
+        assert "corrected \\|B\\|" in summary and "![Coverage of the sphere](coverage.png)" in summary
+
+
+def test_monitor_raw_with_plot_and_the_terminal_view(handheld):
+    out = ok(fluxcal("monitor", "--raw", "--plot", "--seconds", 2, "--port", handheld.port, MPLBACKEND="Agg"))
+    assert "raw |B|: mean" in out.splitlines()[-1]
+    # on a terminal: the live table (rich), then the same summary
+    main, sub = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-m", "desktop", "monitor", "--seconds", "2", "--port", handheld.port],
+                            cwd=ROOT, stdin=subprocess.DEVNULL, stdout=sub, stderr=subprocess.PIPE)
+    os.close(sub)
+    screen = _read_all(main, proc)
+    assert proc.returncode == 0, proc.stderr.read()
+    assert "fluxcal monitor" in screen and "peak-to-peak" in screen and "corrected |B|: mean" in screen
+
+
+def _read_all(fd, proc):
+    out = b""
+    end = time.monotonic() + NO_HANG_S
+    while time.monotonic() < end:
+        if select.select([fd], [], [], 0.1)[0]:
+            try:
+                data = os.read(fd, 65536)
+            except OSError:     # EIO: the program closed its terminal
+                break
+            if not data:
+                break
+            out += data
+        elif proc.poll() is not None:
+            break
+    proc.wait(timeout=5)
+    os.close(fd)
+    return out.decode(errors="replace")
+
+
+def test_noise_and_broken_lines_on_the_wire_are_skipped(handheld):
+    """Bytes that are not lines, and a line cut short (its rest lost), between the firmware's lines."""
+    stop = threading.Event()
+
+    def noise():
+        while not stop.is_set():
+            for junk in (b"\xff\xfe\x00garbage\r\n", b'{"v": 1, "ev": "da', b"\x1b[2J>>> \n"):
+                os.write(handheld.world.master, junk)
+                time.sleep(0.01)
+
+    t = threading.Thread(target=noise, daemon=True)
+    t.start()
+    try:
+        proc = fluxcal("monitor", "--seconds", 1.5, "--port", handheld.port)
+    finally:
+        stop.set()
+        t.join()
+    assert "corrected |B|: mean" in ok(proc).splitlines()[-1]
+    note = proc.stderr.strip().splitlines()
+    assert len(note) == 1 and note[0].startswith("fluxcal: note: skipped"), proc.stderr
+
+
+def test_port_held_by_another_program(handheld):
+    with serial.Serial(handheld.port, exclusive=True):
+        fails_in_one_line(fluxcal("status", "--port", handheld.port), "in use by another program")
+
+
+@pytest.mark.parametrize("how", ["kill", "stop"])
+def test_device_killed_mid_stream(tmp_path, how):
+    """kill: the serial line goes away (unplugged); stop: the firmware stops, the line stays (hung)."""
+    hh = LiveHandheld(tmp_path, seconds=30)
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "desktop", "monitor", "--seconds", "30", "--port", hh.port],
+                                cwd=ROOT, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True)
+        assert "|B|" in proc.stdout.readline()     # streaming (a line a second, piped)
+        getattr(hh, how)()
+        t0 = time.monotonic()
+        out, err = proc.communicate(timeout=NO_HANG_S)
+        assert time.monotonic() - t0 < 10
+    finally:
+        hh.kill()
+    fails_in_one_line(subprocess.CompletedProcess(proc.args, proc.returncode, out, err), hh.port)
+
+
+def test_against_the_virtual_handheld_on_micropython(tmp_path):
+    """`fluxcal emulate`: the firmware through the board's own HAL in the real micropython, its
+    operator following the LED as the manual says."""
+    import signal
+
+    emu = subprocess.Popen([sys.executable, "-m", "desktop", "emulate", "--runtime", "micropython", "--seconds", "50",
+                            "--flash", tmp_path / "flash"], cwd=ROOT, stdin=subprocess.DEVNULL,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        first = emu.stdout.readline()
+        assert " on /dev/" in first, first + emu.stderr.read()
+        port = first.split(" on ")[-1].strip()
+        assert "runtime micropython" in ok(fluxcal("status", "--port", port))
+        out = ok(fluxcal("calibrate", "--auto", "--port", port))
+        assert "calibration done" in out and "saved, in force" in out
+        ok(fluxcal("pull-cal", "-o", tmp_path / "cal.json", "--port", port))
+        assert json.loads((tmp_path / "cal.json").read_text())["meta"]["units"] == "codes"
+    finally:
+        emu.send_signal(signal.SIGINT)
+        emu.communicate(timeout=NO_HANG_S)
+
+
+# ****** wrong ports and strangers on the line ******
+class FakeDevice:
+    """A pseudo-terminal whose far end answers each request line with answer(line) -> bytes."""
+
+    def __init__(self, answer):
+        self.master, self._slave = pty.openpty()
+        tty.setraw(self._slave)
+        self.port = os.ttyname(self._slave)
+        self.answer = answer
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+        self._thread.start()
+
+    def _serve(self):
+        buf = b""
+        while not self._stop.is_set():
+            if select.select([self.master], [], [], 0.05)[0]:
+                buf += os.read(self.master, 4096)
+                *lines, buf = buf.split(b"\n")
+                for line in lines:
+                    if line.strip():
+                        os.write(self.master, self.answer(line.strip()))
+
+    def close(self):
+        self._stop.set()
+        self._thread.join()
+        os.close(self.master)
+        os.close(self._slave)
+
+
+@pytest.fixture
+def fake():
+    devices = []
+
+    def make(answer):
+        devices.append(FakeDevice(answer))
+        return devices[-1]
+    yield make
+    for d in devices:
+        d.close()
+
+
+def test_another_protocol_version(fake):
+    dev = fake(lambda line: b'{"v": 99, "ok": true, "cmd": "version", "fw": "9.0.0", "proto": 99}\n')
+    fails_in_one_line(fluxcal("status", "--port", dev.port), "protocol version 99", "this fluxcal version 1")
+
+
+def test_only_noise_on_the_line(fake):
+    dev = fake(lambda line: b"\x00\xff?? 9600 baud gibberish ??\r\n")
+    fails_in_one_line(fluxcal("status", "--port", dev.port, "--timeout", 1), "no reply", "not fluxcal's")
+
+
+def test_a_board_at_its_repl(fake):
+    dev = fake(lambda line: b"Traceback (most recent call last):\r\nNameError: name 'version' isn't defined\r\n>>> ")
+    fails_in_one_line(fluxcal("status", "--port", dev.port, "--timeout", 1), "REPL", "fluxcal deploy")
+
+
+@pytest.mark.parametrize("port, words", [
+    ("/dev/fluxcal-no-such-port", ("no such port",)),
+    (__file__, ("not a serial port",)),
+    ("silent-pty", ("no reply to 'version'", "within 1 s")),
+])
+def test_wrong_port(port, words):
+    fds = ()
+    if port == "silent-pty":
+        fds = pty.openpty()          # a port nobody answers on
+        port = os.ttyname(fds[1])
+    try:
+        fails_in_one_line(fluxcal("calibrate", "--port", port, "--timeout", 1), *words)
+    finally:
+        for fd in fds:
+            os.close(fd)
+
+
+def _cal(**change):
+    return dict({"matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "offset": [0, 0, 0], "field": 47000.0}, **change)
+
+
+@pytest.mark.parametrize("text, words", [
+    (json.dumps(_cal(matrix=[[-1, 0, 0], [0, -1, 0], [0, 0, 1]])), ("not positive definite",)),
+    (json.dumps(_cal(matrix=[[0, 1, 0], [1, 0, 0], [0, 0, -1]])), ("not positive definite",)),
+    (json.dumps(_cal(offset=[0, float("nan"), 0])), ("offset[1] is not finite",)),
+    (json.dumps(_cal(field=float("inf"))), ("field is not finite",)),
+    (json.dumps(_cal(field=480000.0)), ("implausible", "1,000-100,000 nT")),
+    (json.dumps(_cal(offset=[0, 0])), ("offset must be a list of 3 numbers",)),
+    ("{not json", ("not JSON",)),
+])
+def test_push_of_an_invalid_calibration_is_refused_before_sending(tmp_path, text, words):
+    path = tmp_path / "bad.json"
+    path.write_text(text)
+    # the port does not exist: the refusal must come before any attempt to reach the device
+    fails_in_one_line(fluxcal("push-cal", path, "--port", "/dev/fluxcal-no-such-port"), *words)
+
+
+# ****** the pieces, without a device ******
+def test_line_reader_keeps_protocol_lines_and_counts_the_rest():
+    r = LineReader()
+    got = r.feed(b'\xff\xfegarbage\n{"v": 1, "ev": "da{"v": 1, "ok": true, "cmd": "status"}\n[1, 2]\n{"v": 1, "ev"')
+    assert got == [{"v": 1, "ok": True, "cmd": "status"}] and r.skipped == 3
+    assert r.feed(b': "raw", "c": [1, 2, 3]}\r\n') == [{"v": 1, "ev": "raw", "c": [1, 2, 3]}]
+    r.feed(b"x" * 20000)       # no newline in sight: dropped, the buffer stays bounded
+    assert r.skipped == 4 and r.feed(b'\n{"v": 1, "ok": false, "cmd": "x"}\n') == [{"v": 1, "ok": False, "cmd": "x"}]
+
+
+def test_cell_directions_are_the_cells_of_shared_coverage():
+    from desktop.cli._show import cell_directions
+    from shared.coverage import Coverage
+
+    for edge in (1, 3, 4, 6):
+        cov = Coverage(edge)
+        dirs = cell_directions(edge)
+        assert len(dirs) == cov.n_cells
+        assert all(cov.cell(*d) == i and math.isclose(sum(c * c for c in d), 1.0) for i, d in enumerate(dirs))
