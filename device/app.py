@@ -132,6 +132,7 @@ class App:
             self.wait()
         if self.log is not None:
             self.log.close()
+        b.hand_back()   # `repl` (self.quit): main.py / code.py ends next, the REPL takes the line
 
     def wait(self):
         """Idle for _HOUSE_MS, counted in conversions.

@@ -160,6 +160,14 @@ def _known_key(app, key):
     return key
 
 
+def repl(app, args):
+    """Hand the serial line back to the REPL: this reply goes out, then App.run returns and
+    main.py / code.py ends, so mpremote can take the line (fluxcal deploy) without the button."""
+    _idle(app)
+    app.quit = True
+    return {}
+
+
 def help_(app, args):
     names = list(TABLE)
     names.sort()
@@ -178,5 +186,6 @@ TABLE = {
     "get-coverage": get_coverage,
     "stream": stream,
     "config": config,
+    "repl": repl,
     "help": help_,
 }

@@ -92,6 +92,11 @@ class Board:
         """True when the main loop should return (the simulation's power-off)."""
         return False
 
+    def hand_back(self):
+        """The main loop has returned (the `repl` command, or the simulation's power-off):
+        give the board back to the REPL. A HAL undoes here what it took from the REPL
+        (hal_micropython.py: the DRDY interrupt, Ctrl-C). Nothing by default."""
+
     # ****** serial (USB CDC) ******
     def serial_read(self):
         """Bytes waiting from the host, or None; never blocks."""

@@ -20,7 +20,9 @@ After each service one byte is clocked with both CS high: DRDY returns high on
 the first SCLK (section 8.5.1.6) even for a frame the handler did not read, so the
 next low level is the next conversion, never the same one twice.
 Serial: usb_cdc.data if enabled in boot.py (a second, binary-clean port),
-else the console via supervisor.runtime.serial_bytes_available.
+else the console via supervisor.runtime.serial_bytes_available. After the
+`repl` command the contract's default hand_back is enough: Ctrl-C was never
+taken, and CircuitPython releases the pins itself when code.py ends.
 """
 
 import sys
@@ -52,7 +54,15 @@ _RES_US = 31                      # monotonic_ns resolution, 1/32768 s
 
 
 def _pin(name):
-    return getattr(_board, name) if isinstance(name, str) else name
+    """A board pin from config.json: a board name ("GP18", "D5"), or a GPIO number, which is
+    the board's GP<n> (the names of RP2040 boards, so the defaults' Pico wiring works as is)."""
+    if isinstance(name, int):
+        key = "GP%d" % name
+        if not hasattr(_board, key):
+            raise ValueError("pin %d: this board has no %s; set the pins by board name in config.json"
+                             % (name, key))
+        name = key
+    return getattr(_board, name)
 
 
 class Board(hal.Board):

@@ -4,7 +4,9 @@ The contract is hal.py. DRDY uses a hard IRQ where the port
 accepts `hard=True` (rp2, stm32); esp32's Pin.irq has no `hard` argument and
 always schedules the handler (a soft IRQ: it may run a few ms late, which the
 ring absorbs). USB serial is sys.stdin/sys.stdout with Ctrl-C disabled while
-the app runs, so a stray 0x03 on the wire cannot stop the instrument.
+the app runs, so a stray 0x03 on the wire cannot stop the instrument; the
+`repl` command ends the app and turns Ctrl-C back on (hand_back), so mpremote
+can take the line without the button.
 """
 
 import sys
@@ -132,6 +134,13 @@ class Board(hal.Board):
 
     def idle(self):
         machine.idle()   # sleeps until the next interrupt (DRDY within 1/rate s)
+
+    def hand_back(self):
+        self._drdy.irq(handler=None)   # the REPL has no use for the DRDY handler
+        try:
+            micropython.kbd_intr(3)    # Ctrl-C interrupts again: how mpremote gets in
+        except AttributeError:
+            pass
 
     # serial (USB CDC)
     def serial_read(self):

