@@ -1,7 +1,7 @@
 """The handheld from the laptop: `fluxcal status/calibrate/monitor/capture/pull-cal/push-cal/report`
 as a user runs them, in a subprocess, against firmware answering on a real pseudo-terminal in
-real time (tests/realtime.py: in this process, fast; one test against `fluxcal emulate`, the
-board's own HAL in the real micropython), and every kind of bad input (one line, non-zero exit,
+real time (tests/realtime.py: in this process, fast; the whole chain against `fluxcal emulate` on
+the real micropython is tests/test_laptop_chain.py), and every kind of bad input (one line, non-zero exit,
 no traceback, no hang). Nothing is mocked: where a test needs a device that misbehaves (another
 protocol version, only noise on the line) it is a few lines of Python behind a real pty.
 """
@@ -230,28 +230,6 @@ def test_device_killed_mid_stream(tmp_path, how):
     finally:
         hh.kill()
     fails_in_one_line(subprocess.CompletedProcess(proc.args, proc.returncode, out, err), hh.port)
-
-
-def test_against_the_virtual_handheld_on_micropython(tmp_path):
-    """`fluxcal emulate`: the firmware through the board's own HAL in the real micropython, its
-    operator following the LED as the manual says."""
-    import signal
-
-    emu = subprocess.Popen([sys.executable, "-m", "desktop", "emulate", "--runtime", "micropython", "--seconds", "50",
-                            "--flash", tmp_path / "flash"], cwd=ROOT, stdin=subprocess.DEVNULL,
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        first = emu.stdout.readline()
-        assert " on /dev/" in first, first + emu.stderr.read()
-        port = first.split(" on ")[-1].strip()
-        assert "runtime micropython" in ok(fluxcal("status", "--port", port))
-        out = ok(fluxcal("calibrate", "--auto", "--port", port))
-        assert "calibration done" in out and "saved, in force" in out
-        ok(fluxcal("pull-cal", "-o", tmp_path / "cal.json", "--port", port))
-        assert json.loads((tmp_path / "cal.json").read_text())["meta"]["units"] == "codes"
-    finally:
-        emu.send_signal(signal.SIGINT)
-        emu.communicate(timeout=NO_HANG_S)
 
 
 # ****** wrong ports and strangers on the line ******

@@ -71,16 +71,16 @@ def run(args):
             hh = VirtualHandheld(flash, runtime=args.runtime, sensor=args.sensor, seed=args.seed, on_behind=on_behind)
         except FileNotFoundError as exc:
             raise CommandError(str(exc))
-        if not args.bare:
-            _install_if_empty(hh, flash)
-    keys = _Keys(hh, done) if sys.stdin.isatty() else None
+    keys = _Keys(hh, done)
     try:
         hh.start()
         print("fluxcal emulate: virtual handheld (%s, %s) on %s" % (args.runtime, args.sensor, hh.port), flush=True)
-        if keys is not None:
+        if args.runtime != "cpython" and not args.bare:
+            _deploy_if_empty(hh, flash)
+        if sys.stdin.isatty():
             print("keys: r turn by hand, h hold, s spin, f follow the LED, p press, l long press,"
                   " c power cycle, q quit", flush=True)
-            keys.start()
+        keys.start()
         t0 = time.monotonic()
         nxt = STATUS_S
         while not done.is_set():
@@ -95,8 +95,7 @@ def run(args):
                 _status(hh, now)
             done.wait(0.05)
     finally:
-        if keys is not None:
-            keys.stop()
+        keys.stop()
         hh.close()
         if tmp is not None:
             tmp.cleanup()
@@ -123,57 +122,75 @@ def _status(hh, now):
           % (now, hh.world.time, cap, hh.operator.mode, who), flush=True)
 
 
-def _install_if_empty(hh, flash):
-    """A flash without firmware gets it, and the board's wiring (config.json)."""
+def _deploy_if_empty(hh, flash):
+    """A flash without firmware gets it as a board does: by fluxcal deploy's own code, over the
+    board's port with mpremote (MicroPython), or into its drive folder (CircuitPython), then a reset."""
     import os
 
-    from desktop.devicesim.runners import install_firmware
-    from desktop.firmware.files import import_device
+    from desktop.cli import CommandError
+    from desktop.cli.deploy import check_version
+    from desktop.firmware.deploy import DeployError, MicroPythonDeploy, deploy_drive, firmware_version
+
     entry = "code.py" if hh.runtime == "circuitpython" else "main.py"
-    if not os.path.exists(os.path.join(flash, entry)):
-        install_firmware(flash, hh.runtime)
-    store = import_device("store")
-    if store.load(flash, "config")[0] is None:
-        store.save(flash, "config", hh.wiring_config())
+    if os.path.exists(os.path.join(flash, entry)):
+        return
+    print("the flash holds no firmware: deploying it (fluxcal deploy)", flush=True)
+    try:
+        if hh.runtime == "circuitpython":
+            done = deploy_drive(flash)
+            hh.act("power-cycle")
+        else:
+            done = MicroPythonDeploy(hh.port, compiled=True).run()
+    except DeployError as exc:
+        raise CommandError(" ".join(str(exc).split())) from None
+    check_version(hh.port, firmware_version(hh.runtime))
+    print(done, flush=True)
 
 
 class _Keys:
-    """Single keys from the terminal, while emulate runs in it (cbreak mode, restored at exit)."""
+    """Single keys from standard input while emulate runs: from the terminal (cbreak mode, restored
+    at exit) or from a pipe (a program steering the operator); nothing when it is closed."""
 
     def __init__(self, hh, done):
         self.hh = hh
         self.done = done
         self._old = None
-        self._thread = None
 
     def start(self):
         import sys
-        import termios
         import threading
-        import tty
-        fd = sys.stdin.fileno()
-        self._old = termios.tcgetattr(fd)
-        tty.setcbreak(fd)
-        self._thread = threading.Thread(target=self._read, daemon=True)
-        self._thread.start()
+        if sys.stdin is None or sys.stdin.closed:
+            return
+        if sys.stdin.isatty():
+            import termios
+            import tty
+            fd = sys.stdin.fileno()
+            self._old = termios.tcgetattr(fd)
+            tty.setcbreak(fd)
+        threading.Thread(target=self._read, daemon=True).start()
 
     def _read(self):
+        import os
         import select
         import sys
+        fd = sys.stdin.fileno()
         while not self.done.is_set():
-            if not select.select([sys.stdin], [], [], 0.1)[0]:
+            if not select.select([fd], [], [], 0.1)[0]:
                 continue
-            key = sys.stdin.read(1)
-            if key == "q":
-                self.done.set()
-            elif key in KEYS:
-                try:
-                    self.hh.act(KEYS[key])
-                except ValueError as exc:
-                    print("(%s)" % exc, flush=True)
+            data = os.read(fd, 64).decode(errors="replace")
+            if not data:
+                return          # end of input: the operator carries on as it was
+            for key in data:
+                if key == "q":
+                    self.done.set()
+                elif key in KEYS:
+                    try:
+                        self.hh.act(KEYS[key])
+                    except ValueError as exc:
+                        print("(%s)" % exc, flush=True)
 
     def stop(self):
         import sys
-        import termios
         if self._old is not None:
+            import termios
             termios.tcsetattr(sys.stdin.fileno(), termios.TCSADRAIN, self._old)

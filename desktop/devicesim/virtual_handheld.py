@@ -75,6 +75,7 @@ class Hands:
         self.operator = operator
         self.following = True
         self.field_steps = []       # (chip time the step happens, nT, wall time it was asked for)
+        self.steps_reached = []     # wall time at which simulated time reached each field step
         self._actions = queue.Queue()
 
     def act(self, action, arg=None):
@@ -100,6 +101,8 @@ class Hands:
                 w.press(_LONG_S)
             elif action == "field-step":
                 self.field_steps.append((w.handheld.step_field(float(arg) if arg else 100.0), arg, time.monotonic()))
+        if len(self.steps_reached) < len(self.field_steps) and w.time >= self.field_steps[len(self.steps_reached)][0]:
+            self.steps_reached.append(time.monotonic())
         if self.following:
             self.operator.set("hand" if led_says_turn(w.led_log, w.time) else "hold", w.time)
 

@@ -1,0 +1,97 @@
+"""The main job as a surveyor lives it, from the laptop, against the virtual handheld on the real
+interpreter: every step a `fluxcal` command in a subprocess, as typed.
+
+fluxcal emulate --runtime micropython --bare   (a board with an empty flash, on a pty)
+-> fluxcal deploy --port P                       (mpremote; the board reboots into the firmware)
+-> fluxcal deploy --port P again                 (over the running firmware: no button)
+-> fluxcal status
+-> fluxcal calibrate --auto                      (the virtual operator follows the LED)
+-> fluxcal pull-cal                              (against a numpy reference fit of captured samples)
+-> fluxcal push-cal                              (round trip)
+-> fluxcal capture, fluxcal fit offline
+-> fluxcal monitor                               (a spin: |B| within the noise and smearing bound)
+
+The operator is steered through emulate's standard input, as keys from a terminal would be.
+"""
+
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+from desktop.formats.calibration import load_calibration, to_nT_units
+from desktop.formats.capture import field_nT, load_capture
+from desktop.methods import fit_array, magnitudes
+from desktop.sim.scenario import Scenario
+from tests.device_bounds import DEFAULTS, spin_ptp_bound
+from tests.interpreters import need
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FLUXCAL = os.path.join(os.path.dirname(sys.executable), "fluxcal")
+
+
+def fluxcal(*args, timeout=120):
+    r = subprocess.run([FLUXCAL, *map(str, args)], capture_output=True, text=True, cwd=ROOT, timeout=timeout)
+    assert r.returncode == 0 and "Traceback" not in r.stderr, "fluxcal %s: %s%s" % (args[0], r.stdout, r.stderr)
+    return r.stdout
+
+
+def test_deploy_calibrate_monitor_capture_pull_push_from_the_laptop(tmp_path):
+    need("micropython")
+    emu = subprocess.Popen([FLUXCAL, "emulate", "--runtime", "micropython", "--bare", "--seed", "3",
+                            "--flash", tmp_path / "flash"], cwd=ROOT, stdin=subprocess.PIPE,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        first = emu.stdout.readline()
+        assert " on /dev/" in first, first + emu.stderr.read()
+        port = first.split(" on ")[-1].strip()
+        assert not [f for _, _, fs in os.walk(tmp_path / "flash") for f in fs]   # bare: no file to boot
+
+        out = fluxcal("deploy", "--port", port)
+        assert "deployed" in out and "firmware 0.1.0 answers" in out, out
+        assert (tmp_path / "flash" / "main.py").exists() and (tmp_path / "flash" / "lib" / "app.mpy").exists()
+        out = fluxcal("deploy", "--port", port)                        # over the running firmware
+        assert "deployed" in out and "firmware 0.1.0 answers" in out, out
+
+        status = json.loads(fluxcal("status", "--json", "--port", port))
+        assert status["version"]["impl"] == "micropython" and status["status"]["calibrated"] is False
+
+        out = fluxcal("calibrate", "--auto", "--port", port)          # the operator follows the LED
+        assert "calibration done" in out and "saved, in force" in out, out
+        fluxcal("pull-cal", "-o", tmp_path / "device.json", "--port", port)
+
+        emu.stdin.write("r")                                           # turn it by hand from now on
+        emu.stdin.flush()
+        fluxcal("capture", "--seconds", 12, "-o", tmp_path / "capture.npz", "--port", port)
+        emu.stdin.write("s")                                           # the verification spin, 1 rev/s
+        emu.stdin.flush()
+        time.sleep(1.5)   # the hand's last fast turns leave the survey blocks (the world runs 0.25 s ahead)
+        out = fluxcal("monitor", "--seconds", 6, "--port", port)
+        fluxcal("fit", tmp_path / "capture.npz", "-o", tmp_path / "offline.json", "--method", "algebraic")
+
+        fluxcal("push-cal", tmp_path / "device.json", "--port", port)
+        fluxcal("pull-cal", "-o", tmp_path / "again.json", "--port", port)
+    finally:
+        emu.stdin.write("q")
+        emu.stdin.flush()
+        emu.communicate(timeout=30)
+    assert emu.returncode == 0
+
+    # the device's calibration against the numpy reference fitted offline to the captured samples:
+    # they agree on every sample within the verification bound of noise and admitted smearing
+    cap = load_capture(tmp_path / "capture.npz")
+    h = field_nT(cap)
+    device = to_nT_units(load_calibration(tmp_path / "device.json"), cap["nT_per_code"])
+    offline = load_calibration(tmp_path / "offline.json")
+    bound = spin_ptp_bound(Scenario(rate=DEFAULTS["rate"]), 100)
+    diff = magnitudes(device, h) - magnitudes(offline, h)
+    assert len(h) > 500 and np.sqrt(np.mean(diff ** 2)) < bound, (len(h), np.sqrt(np.mean(diff ** 2)))
+    # push-cal round trip: what the device holds is what was pushed
+    a, b = (json.loads((tmp_path / n).read_text()) for n in ("device.json", "again.json"))
+    assert np.allclose(a["matrix"], b["matrix"], rtol=1e-6) and np.allclose(a["offset"], b["offset"], rtol=1e-6)
+    # monitor during a spin: the calibrated |B| stays within what noise and smearing leave
+    ptp = float(out.strip().splitlines()[-1].split("peak-to-peak ")[1].split(" nT")[0])
+    assert ptp < bound, out
