@@ -95,3 +95,34 @@ def test_deploy_calibrate_monitor_capture_pull_push_from_the_laptop(tmp_path):
     # monitor during a spin: the calibrated |B| stays within what noise and smearing leave
     ptp = float(out.strip().splitlines()[-1].split("peak-to-peak ")[1].split(" nT")[0])
     assert ptp < bound, out
+
+
+def test_the_emulator_killed_mid_stream_is_one_line():
+    """monitor streams from `fluxcal emulate`; the emulator dies (SIGKILL): monitor stops with one
+    line and a non-zero exit, no traceback, no hang."""
+    emu = subprocess.Popen([FLUXCAL, "emulate", "--runtime", "cpython"], cwd=ROOT, stdin=subprocess.DEVNULL,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        port = emu.stdout.readline().split(" on ")[-1].strip()
+        assert port.startswith("/dev/"), port + emu.stderr.read()
+        mon = subprocess.Popen([FLUXCAL, "monitor", "--seconds", "60", "--port", port], cwd=ROOT,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(3.0)
+        emu.kill()
+        out, err = mon.communicate(timeout=30)
+    finally:
+        if emu.poll() is None:
+            emu.kill()
+        emu.wait()
+    lines = err.strip().splitlines()
+    assert mon.returncode != 0 and len(lines) == 1 and lines[0].startswith("fluxcal: "), err
+    assert "Traceback" not in err and "|B|" in out
+
+
+def test_emulate_stops_loudly_when_the_firmware_falls_behind():
+    """Asked to run simulated time 500 times faster than the wall clock, no firmware keeps up:
+    emulate says so in one line and exits 1 instead of serving a world that lags."""
+    r = subprocess.run([FLUXCAL, "emulate", "--runtime", "cpython", "--speed", "500", "--seconds", "60"], cwd=ROOT,
+                       stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 1 and len(lines) == 1 and "behind" in lines[0] and "500x" in lines[0], r.stderr

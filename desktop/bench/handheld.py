@@ -6,7 +6,9 @@
 What, per runtime (the interpreters a board has, and the firmware in CPython), at the
 default acquisition configuration, wall time on this shared machine, median (min-max)
 over the runs:
-- start-up: `fluxcal emulate` launched until the firmware answers `version` on its port;
+- start-up: `fluxcal emulate` launched until the firmware answers `version` on its port, first
+  with an empty flash (emulate deploys to it: fluxcal deploy's code over mpremote), then again
+  with the firmware on the flash;
 - deploy: `fluxcal deploy` (.mpy and source) into `fluxcal emulate --bare`, until the
   firmware it installed answers (MicroPython runtimes; CircuitPython takes a drive folder);
 - calibrate: `fluxcal calibrate --auto` against it, the virtual operator following the LED,
@@ -42,12 +44,14 @@ ALL = RUNTIMES + ("cpython",)
 
 
 def _emulate(runtime, *extra):
-    """`fluxcal emulate` in a subprocess; (process, port)."""
+    """`fluxcal emulate` in a subprocess, once it says it is ready (it may deploy first); (process, port)."""
     proc = subprocess.Popen(FLUXCAL + ["emulate", "--runtime", runtime] + list(extra), stdin=subprocess.DEVNULL,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     line = proc.stdout.readline()
     m = re.search(r" on (/dev/\S+)", line)
-    if not m:
+    while m and not line.startswith("ready") and proc.poll() is None:
+        line = proc.stdout.readline()
+    if not m or not line.startswith("ready"):
         proc.kill()
         raise RuntimeError("fluxcal emulate: %s%s" % (line, proc.stdout.read()[-1000:]))
     return proc, m.group(1)
@@ -69,14 +73,21 @@ def _answers(port, timeout=30.0):
 
 
 def startup(runtime):
-    t0 = time.monotonic()
-    proc, port = _emulate(runtime)
-    try:
-        answered = _answers(port)
-        return None if answered is None else time.monotonic() - t0
-    finally:
-        proc.terminate()
-        proc.wait(timeout=10)
+    """(s from launch until the firmware answers with an empty flash, which emulate deploys to
+    first; the same with the flash already holding the firmware). cpython: no flash (None, s)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        flash = os.path.join(tmp, "flash")
+        out = []
+        for _ in range(2):
+            t0 = time.monotonic()
+            proc, port = _emulate(runtime, "--flash", flash)
+            try:
+                answered = _answers(port)
+                out.append(None if answered is None else time.monotonic() - t0)
+            finally:
+                proc.terminate()
+                proc.wait(timeout=10)
+        return (None, out[1]) if runtime == "cpython" else tuple(out)
 
 
 def deploy(runtime, how):
@@ -172,10 +183,12 @@ def main(argv=None):
     for name in ALL:
         if name != "cpython" and interpreter(name) is None:
             continue
-        r = rows[name] = {"startup": [], "mpy": [], "source": [], "calibrate": [], "cap_cal": [], "cap_survey": [],
-                          "latency": []}
+        r = rows[name] = {"first": [], "again": [], "mpy": [], "source": [], "calibrate": [], "cap_cal": [],
+                          "cap_survey": [], "latency": []}
         for _ in range(args.repeats):
-            r["startup"].append(startup(name))
+            first, again = startup(name)
+            r["first"].append(first)
+            r["again"].append(again)
             if name != "cpython" and name != "circuitpython":
                 r["mpy"].append(deploy(name, "--mpy"))
                 r["source"].append(deploy(name, "--source"))
@@ -187,16 +200,17 @@ def main(argv=None):
                 r["latency"].append(latency)
     print("### The virtual handheld from a laptop (wall time on this machine, median (min-max) over %d runs)\n"
           % args.repeats)
-    print("| runtime | emulate to answering | deploy .mpy | deploy source | calibrate --auto (LED-following"
-          " operator) | capacity calibrating | capacity survey | field step to the stream |")
+    print("| runtime | emulate to answering: empty flash (deploys) / deployed | deploy .mpy | deploy source |"
+          " calibrate --auto (LED-following operator) | capacity calibrating | capacity survey |"
+          " field step to the stream |")
     print("|---|---|---|---|---|---|---|---|")
 
     def cell(values, f, unit):
         values = [v for v in values if v is not None]
         return fmt(values, f, unit) if values else "-"
     for name, r in rows.items():
-        print("| %s | %s | %s | %s | %s | %s | %s | %s |" % (
-            name, cell(r["startup"], "%.1f", " s"), cell(r["mpy"], "%.1f", " s"), cell(r["source"], "%.1f", " s"),
+        print("| %s | %s / %s | %s | %s | %s | %s | %s | %s |" % (
+            name, cell(r["first"], "%.1f", " s"), cell(r["again"], "%.1f", " s"), cell(r["mpy"], "%.1f", " s"), cell(r["source"], "%.1f", " s"),
             cell(r["calibrate"], "%.1f", " s"), cell(r["cap_cal"], "%.1f", "x"), cell(r["cap_survey"], "%.1f", "x"),
             cell(r["latency"], "%.2f", " s")))
     print("\n(command: python -m desktop.bench.handheld --repeats %d; %.0f s)" % (args.repeats, time.time() - t0))

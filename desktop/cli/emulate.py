@@ -17,6 +17,8 @@ def add_arguments(p):
     p.add_argument("--bare", action="store_true", help="a board with an empty flash: only the REPL")
     p.add_argument("--script", help="the operator's actions: lines 'SECONDS ACTION [ARG]', e.g. '2 press'")
     p.add_argument("--seconds", type=float, help="stop after this long (default: until Ctrl-C or 'q')")
+    p.add_argument("--speed", type=float, default=1.0,
+                   help="simulated seconds per wall second (default 1: real time; more, to test a machine's margin)")
 
 
 def read_script(path):
@@ -65,10 +67,12 @@ def run(args):
     flash = os.path.abspath(args.flash or os.path.join(tmp.name, "flash"))
     os.makedirs(flash, exist_ok=True)
     if args.runtime == "cpython":
-        hh = InProcessHandheld(os.path.dirname(flash), sensor=args.sensor, seed=args.seed, on_behind=on_behind)
+        hh = InProcessHandheld(os.path.dirname(flash), sensor=args.sensor, seed=args.seed, speed=args.speed,
+                               on_behind=on_behind)
     else:
         try:
-            hh = VirtualHandheld(flash, runtime=args.runtime, sensor=args.sensor, seed=args.seed, on_behind=on_behind)
+            hh = VirtualHandheld(flash, runtime=args.runtime, sensor=args.sensor, seed=args.seed, speed=args.speed,
+                                 on_behind=on_behind)
         except FileNotFoundError as exc:
             raise CommandError(str(exc))
     keys = _Keys(hh, done)
@@ -77,6 +81,8 @@ def run(args):
         print("fluxcal emulate: virtual handheld (%s, %s) on %s" % (args.runtime, args.sensor, hh.port), flush=True)
         if args.runtime != "cpython" and not args.bare:
             _deploy_if_empty(hh, flash)
+        print("ready: %s" % ("an empty board, its REPL on the port" if args.bare else "the firmware runs"),
+              flush=True)
         if sys.stdin.isatty():
             print("keys: r turn by hand, h hold, s spin, f follow the LED, p press, l long press,"
                   " c power cycle, q quit", flush=True)
@@ -101,8 +107,9 @@ def run(args):
             tmp.cleanup()
     if behind:
         lag, capacity = behind[0]
-        raise CommandError("the firmware fell %.1f s behind real time (it runs at %s real time on this machine)"
-                           % (lag, "%.2fx" % capacity if capacity else "less than 1x"))
+        raise CommandError("the firmware fell %.1f s behind %s (it runs at %s real time on this machine)"
+                           % (lag, "real time" if args.speed == 1 else "%gx real time" % args.speed,
+                              "%.2fx" % capacity if capacity else "less than %gx" % args.speed))
     return 0
 
 
