@@ -12,6 +12,11 @@ from desktop.formats import FormatError
 from desktop.formats.capture import load_field_nT
 
 MIN_ROWS = 12  # nine parameters need more than nine samples
+# No magnetometer fluxcal calibrates reads 10 mT: the Earth's field is 22,000-67,000 nT,
+# a fluxgate's range ~100,000-1,000,000 nT, and a calibration's offset is bounded at
+# 8.4 mT (shared/calibration.py). A larger value is a wrong unit or a broken file, and
+# refused here, before numpy's overflow warnings in a fit (1e300 squared is inf).
+MAX_ABS_NT = 1e7
 
 
 def read_raw(path):
@@ -29,6 +34,11 @@ def read_raw(path):
     bad = ~np.isfinite(h).all(axis=1)
     if bad.any():
         raise FormatError("%s: row %d is not finite (NaN or inf)" % (path, int(np.argmax(bad)) + 1))
+    big = (np.abs(h) > MAX_ABS_NT).any(axis=1)
+    if big.any():
+        row = int(np.argmax(big))
+        raise FormatError("%s: row %d holds %.6g, beyond any magnetometer's range (|value| <= %.0e nT): "
+                          "are the readings in nT?" % (path, row + 1, h[row][np.argmax(np.abs(h[row]))], MAX_ABS_NT))
     return h
 
 
