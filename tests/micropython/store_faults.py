@@ -300,10 +300,10 @@ class Row:
     def check_load(self, label, files, allowed, must_name=()):
         """A fresh load of `files`: the body must be one of `allowed` (None allowed only if
         listed); `problem` must name every file in must_name. Returns (body, source, problem)."""
-        fs, store = mounted(files)
+        _, store = mounted(files)
         try:
             body, src, problem = store.load(ROOT, "cal", validate)
-        except BaseException as e:  # noqa: B036 - a load that raises is a failure of the row
+        except BaseException as e:  # noqa: BLE001 - a load that raises is a failure of the row
             self.fail(label, "load raised %r" % (e,))
             return None, None, None
         if not any(body == a for a in allowed):
@@ -320,7 +320,9 @@ class Row:
 # ---- starting states of the flash ----
 def states(store):
     """name -> (files, the records a load may give: before and after the save)."""
-    good = lambda b: stored(store, b)  # noqa: E731
+    def good(b):
+        return stored(store, b)
+
     partial = good(OLDER)[:37]
     return {
         "empty": ({}, [None]),
@@ -354,7 +356,7 @@ def row_power_loss():
                 label = "%s, cut at step %d/%d (%s, %s)" % (sname, k, len(steps),
                                                             steps[k - 1] if k <= len(steps) else "none", torn)
                 files = copy(start)
-                fs, store = mounted(files, cut=k, torn=torn)
+                _, store = mounted(files, cut=k, torn=torn)
                 try:
                     store.save(ROOT, "cal", NEW)
                     if k <= len(steps):
@@ -378,9 +380,8 @@ def row_power_loss():
                         except ValueError as e:
                             r.fail(label, "cal.bak is not the previous record: %s" % e)
                 # named: a cal.json that is there but refused
-                if src not in (None, "json") and had_json:
-                    if problem is None or "cal.json" not in problem:
-                        r.fail(label, "cal.json refused without naming it: %r" % (problem,))
+                if src not in (None, "json") and had_json and (problem is None or "cal.json" not in problem):
+                    r.fail(label, "cal.json refused without naming it: %r" % (problem,))
                 # the store works on after the cut: one more save sticks
                 _, store = mounted(files)
                 try:
@@ -453,7 +454,7 @@ def row_flipped_bytes():
             if b == new:
                 continue
             r.case()
-            body, src, problem = r.check_load("cal.json byte %d %s, cal.bak good" % (i, how),
+            _, src, problem = r.check_load("cal.json byte %d %s, cal.bak good" % (i, how),
                                               {"cal.json": b, "cal.bak": old}, [NEW, OLD])
             if src == "bak" and (problem is None or "cal.json" not in problem):
                 r.fail("byte %d %s" % (i, how), "cal.json refused without naming it: %r" % (problem,))
@@ -471,7 +472,7 @@ def _failing_save(r, label, files, fault, before, body=NEW):
         r.fail(label, "save returned as if the record had stuck")
     except OSError:
         pass
-    except BaseException as e:  # noqa: B036
+    except BaseException as e:  # noqa: BLE001 - PowerLoss included: no save may raise it here
         r.fail(label, "save raised %s (%r), not OSError" % (e.__class__.__name__, e))
     r.check_load(label, files, [before])
 
@@ -521,13 +522,13 @@ def row_read_only():
         except OSError:
             if before is None:
                 r.fail(label, "remove raised with nothing to remove")
-        except BaseException as e:  # noqa: B036
+        except BaseException as e:  # noqa: BLE001 - PowerLoss included: no save may raise it here
             r.fail(label, "remove raised %r, not OSError" % (e,))
         r.check_load(label, files, [before])
     r.case()
     files = {"cal.tmp": stored(store, OLD), "cal.bak": stored(store, OLDER)}
     _, store = mounted(files, fault="erofs")
-    body, src, problem = store.load(ROOT, "cal", validate)
+    body, src, _ = store.load(ROOT, "cal", validate)
     if body != OLD or src != "tmp":
         r.fail("tmp+bak read-only", "load gave %s from %s" % (body, src))
     return r
@@ -564,7 +565,7 @@ def row_remove():
         r.fail("cal.json cannot be removed", "remove returned")
     except OSError:
         pass
-    except BaseException as e:  # noqa: B036
+    except BaseException as e:  # noqa: BLE001 - PowerLoss included: no save may raise it here
         r.fail("cal.json cannot be removed", "remove raised %r" % (e,))
     r.check_load("cal.json cannot be removed", files, [OLD])
     return r
