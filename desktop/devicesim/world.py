@@ -20,18 +20,23 @@ import time
 import tty
 
 from desktop.firmware.files import import_device
+from desktop.sim.ads1292.registers import F_MOD
 from desktop.sim.handheld import Handheld
 from desktop.sim.scenario import Scenario
 
 wire = import_device("sim_wire")
 
 BATCH = 512   # conversions each chip computes per vectorised call (ADS1292 `batch`)
+SYSTICK_S = 0.001   # a core in idle wakes at the latest on its 1 ms tick (or any interrupt)
+HOST_POLL_S = 0.002  # the pty is polled for the host's bytes every this much simulated time (USB: 1 ms frames)
 
 
-def make_world(serial="pty", fault=(None, None), chip_ids=(0x53, 0x53), t0=0.1, **scenario):
+def make_world(serial="pty", fault=(None, None), chip_ids=(0x53, 0x53), t0=0.1, chunked=False, **scenario):
     """A World on the simulator's Handheld for the given Scenario settings
-    (desktop/sim/scenario.py: sensor, motion, seconds, seed, rate, dipole, ...)."""
-    return World(Handheld(Scenario(**scenario), t0=t0, fault=fault, chip_ids=chip_ids), serial=serial)
+    (desktop/sim/scenario.py: sensor, motion, seconds, seed, rate, dipole, ...); chunked:
+    the analog input computed as time goes (hours of simulated time, Handheld `chunked`)."""
+    return World(Handheld(Scenario(**scenario), t0=t0, fault=fault, chip_ids=chip_ids, chunked=chunked),
+                 serial=serial)
 
 
 class World:
@@ -42,6 +47,8 @@ class World:
         for c in self.chips:
             c.batch = BATCH
         self.bus = handheld.bus
+        self._c0, self._others = self.chips[0], self.chips[1:]
+        self._next_host_poll = self._tx_blocked_until = 0.0
         self.t_us = 0
         self.flags = 0
         self.pending = 0
@@ -49,6 +56,8 @@ class World:
         self.quit = False
         self.on_due = None          # called by idle() once the run's time is up (runners.InProcessDevice)
         self._falls = 0
+        self.drdy_edges = 0         # DRDY edges of chip 0 delivered to the firmware (F_DRDY replies)
+        self.drdy_merged = 0        # conversions whose edge fell in the same wait as another (lost to an IRQ)
         self.button_events = []     # (t_down, t_up) seconds
         self.led_log = []           # (t, level)
         self.start_level = False
@@ -75,12 +84,24 @@ class World:
 
     def _advance(self, seconds):
         self._ahead(seconds)
+        self._sync()
         self.bus.advance(seconds)
 
+    def _sync(self):
+        """Bring the other chips to chip 0's time. Waiting for DRDY moves chip 0 only (its
+        DRDY is the one wired to the MCU): the others catch up here, in one step, before
+        anything reaches the bus or the pins (their conversions are the same either way)."""
+        tick = self._c0.tick
+        for c in self._others:
+            if c.tick < tick:
+                c.advance_to_tick(tick)
+
     def _ahead(self, seconds):
-        """A live handheld computes its analog input as time goes (desktop/sim/handheld.py)."""
-        if self.handheld.live:
-            self.handheld.keep_ahead(self.time + seconds)
+        """A live or chunked handheld computes its analog input as time goes (desktop/sim/handheld.py)."""
+        t = self.time + seconds
+        if t > self.handheld.ahead_until:
+            self._sync()            # the chips hold the old window until they are past it
+            self.handheld.keep_ahead(t)
 
     def _sync_time(self):
         self.t_us = int(round(self.time * 1e6)) & wire.T_MASK
@@ -109,6 +130,7 @@ class World:
     def xfer(self, chip, wbuf, rbuf, n):
         """One SPI transaction: CS of `chip` low (every CS high for wire.NO_CHIP), n bytes, CS high."""
         data = bytes(n) if wbuf is None else bytes(wbuf[:n])
+        self._sync()
         self.bus.select(None if chip == wire.NO_CHIP else chip)
         rx = self.bus.transfer(data)
         self.bus.select(None)
@@ -119,6 +141,7 @@ class World:
         return rx
 
     def pin(self, which, value):
+        self._sync()
         if which == wire.PIN_START:
             self.start_level = bool(value)
             self.bus.start = bool(value)
@@ -137,7 +160,9 @@ class World:
         self._sync_time()
 
     def idle(self, max_us=0, advance=True):
-        """Advance to the next DRDY edge of chip 0 (or the next scripted event, or the budget).
+        """Advance to the next DRDY edge of chip 0 (or the next scripted event, or the budget),
+        at most SYSTICK_S: a core waiting for an interrupt wakes on its 1 ms tick, so a DRDY
+        that never comes (a dead chip, ads1292/chip.py faults) does not stop the main loop.
 
         max_us > 0: a charged main-loop stall in IRQ mode (hal_sim.Board.busy):
         return at the next DRDY or after max_us, whatever the run budget says,
@@ -147,25 +172,27 @@ class World:
             self.on_due()           # the run's time is up: the runner parks the firmware here
         self.idles += 1
         t = self.time
-        limit = t + max_us / 1e6 if max_us else self._next_event(t)
+        limit = min(t + max_us / 1e6 if max_us else self._next_event(t), t + SYSTICK_S)
         flags = 0
         if advance and limit > t:
-            c0 = self.chips[0]
+            c0 = self._c0
             if self.start_level and c0._next_drdy is not None:
-                self._ahead(min(limit - t, 0.1))
-                try:
-                    self.bus.wait_drdy(0, timeout=limit - t)   # DRDY of chip 0 is wired to the MCU
+                self._ahead(limit - t)
+                try:        # DRDY of chip 0 is wired to the MCU; the others follow in _sync
+                    c0.advance_to_tick(c0.next_drdy_tick(limit - t))
                 except TimeoutError:
                     pass
             else:
-                self._advance(min(0.001, limit - t))
+                self._advance(limit - t)
         falls = self.chips[0].drdy_falls
         if falls != self._falls:   # edge-triggered, like Pin.irq(IRQ_FALLING)
+            self.drdy_edges += 1
+            self.drdy_merged += falls - self._falls - 1
             self._falls = falls
             flags |= wire.F_DRDY
         if not self.chips[0].drdy:
             flags |= wire.F_DRDY_LOW
-        if self._button_level():
+        if self.button_events and self._button_level():
             flags |= wire.F_BUTTON
         self._pump_serial()
         if self._rx:
@@ -179,6 +206,7 @@ class World:
     def poll(self, max_us):
         """A pin read that takes time (OP_POLL): nothing passes while chip 0's DRDY is low,
         else time runs until it falls or max_us passed."""
+        self._sync()
         if self.chips[0].drdy and self.start_level:
             self._ahead(max_us / 1e6)
             try:
@@ -214,14 +242,17 @@ class World:
         if self.master is None:
             self._tx = bytearray()
             return
-        if self._tx:
+        t = self._c0.tick / F_MOD
+        if self._tx and t >= self._tx_blocked_until:
             try:
                 n = os.write(self.master, self._tx)
                 del self._tx[:n]
                 self.to_host += n
-            except BlockingIOError:
-                pass
-        self._read_host(0)
+            except BlockingIOError:     # the pty is full (the host reads slowly): try again later
+                self._tx_blocked_until = t + HOST_POLL_S
+        if t >= self._next_host_poll:
+            self._next_host_poll = t + HOST_POLL_S
+            self._read_host(0)
 
     def _read_host(self, timeout):
         r, _, _ = select.select([self.master], [], [], timeout)

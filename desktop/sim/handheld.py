@@ -11,7 +11,11 @@ Chip A (bus index 0) gets the X and Y front-end outputs, chip B (index 1) Z and
 nothing on CH2 (the firmware sets CH2 to MUX=0100, the die temperature). The
 analog signal is computed for the whole scenario up front on the scenario's
 grid (16 kHz or more for a byte-level run: sinc3 exact at every data rate the
-firmware may pick) and is the same signal `simulate` digitises.
+firmware may pick) and is the same signal `simulate` digitises. A live
+handheld (an operator deciding as time goes) or a `chunked` one (hours of
+survey: the whole grid would not fit in memory) computes it chunk by chunk a
+little ahead of the chips instead (:meth:`keep_ahead`, called by the World
+before it lets time pass); the chips then hold only a window of it.
 """
 
 import numpy as np
@@ -23,6 +27,7 @@ from desktop.sim.scenario import AnalogChain
 
 LIVE_AHEAD_S = 0.25     # live: analog input computed this far ahead of the chips' time
 _LIVE_BACK_S = 0.02     # and kept this far behind it (a conversion's sinc3 looks back 3 / rate)
+CHUNK_AHEAD_S = 1.0     # chunked (scripted): longer chunks, fewer calls and reloads of the chips
 
 
 class Handheld:
@@ -35,21 +40,34 @@ class Handheld:
         Chip time (s) at which the scenario's motion begins (the firmware boots
         first; before t0 the sensor holds its first attitude).
     fault : (str or None, str or None)
-        Fault injection for chip A and chip B (see ads1292/chip.py FAULTS).
+        Fault injection for chip A and chip B (see ads1292/chip.py FAULTS);
+        :meth:`set_fault` switches one at run time.
     chip_ids : (int, int)
         ID register values of chip A and chip B.
     batch : int
         Conversions each chip computes per vectorised call (ads1292/chip.py
         ADS1292 `batch`; also settable later as ``chip.batch``). The codes do not
         depend on it; 512 makes the byte-level path ~15x faster.
+    operator : desktop.sim.operator.LiveOperator or None
+        A live operator instead of the scenario's scripted motion (implies chunked).
+    chunked : bool
+        Compute the analog input as time goes (:meth:`keep_ahead`) rather than
+        up front: memory stays bounded whatever the scenario's length. Whoever
+        advances the chips must call keep_ahead first (the World does).
     """
 
-    def __init__(self, scenario, t0=0.1, fault=(None, None), chip_ids=(0x53, 0x53), batch=1, operator=None):
+    def __init__(self, scenario, t0=0.1, fault=(None, None), chip_ids=(0x53, 0x53), batch=1, operator=None,
+                 chunked=False):
         sc = scenario
         motion_rng, noise_rng, rng_a, rng_b = sc.rngs()
         self.motion = sc.operator(motion_rng) if operator is None else operator
         self.live = operator is not None
-        rate = max(16000, sc.grid_hz())
+        self.chunked = self.live or bool(chunked)
+        self.ahead_s = LIVE_AHEAD_S if self.live else CHUNK_AHEAD_S
+        self.ahead_until = float("inf")     # chip time up to which keep_ahead has nothing to do
+        # the scenario's grid when given (8 kHz and up hold every data rate's conversion in whole
+        # samples), else 16 kHz or more
+        rate = max(16000, sc.grid_hz()) if sc.grid_rate == "auto" else sc.grid_hz()
         step = F_MOD // rate
         # noise scaled for a conversion 4 ticks into a grid sample (the byte path's
         # START lands anywhere; the sinc3's weights hardly depend on the phase)
@@ -61,7 +79,7 @@ class Handheld:
         self.bus = SPIBus(self.chips)
         self._g0 = 0            # first grid sample the chips hold
         self._g_done = 0        # grid samples computed
-        if self.live:
+        if self.chunked:
             self.grid = None
             self.keep_ahead(0.0)
         else:
@@ -83,15 +101,17 @@ class Handheld:
         return t
 
     def keep_ahead(self, t):
-        """Live: make sure the chips hold the analog input up to chip time t + LIVE_AHEAD_S
-        (computing the next chunk, from what the operator does now, when it runs short)."""
-        if not self.live:
+        """Live or chunked: make sure the chips hold the analog input up to chip time
+        t + `ahead_s` (LIVE_AHEAD_S live, CHUNK_AHEAD_S chunked), computing the next chunk
+        (from what the operator does now) when it runs short. Nothing to do while
+        t <= `ahead_until`."""
+        if not self.chunked:
             return
-        rate = self.grid_rate
-        need = int((t - self.t0 + LIVE_AHEAD_S) * rate) + 1
-        if need <= self._g_done - int(0.5 * LIVE_AHEAD_S * rate):
+        rate, ahead = self.grid_rate, self.ahead_s
+        need = int((t - self.t0 + ahead) * rate) + 1
+        if need <= self._g_done - int(0.5 * ahead * rate):
             return              # enough ahead still
-        end = need + int(LIVE_AHEAD_S * rate)
+        end = need + int(ahead * rate)
         new = self._chain.grid(self._g_done, end, self._step)
         keep_from = max(0, int((t - self.t0 - _LIVE_BACK_S) * rate))
         if self.grid is None:
@@ -103,6 +123,16 @@ class Handheld:
             self._g0 += cut
         self.grid, self._g_done = grid, end
         self._load(grid)
+        # the largest t for which `need` above stays within the margin (a little below it)
+        self.ahead_until = self.t0 - ahead + (end - int(0.5 * ahead * rate) - 2) / rate
+
+    def set_fault(self, chip, fault, rate=None):
+        """Inject `fault` (ads1292/chip.py FAULTS; None clears it) into chip `chip` (0: A,
+        1: B) from the current simulated time on; `rate` as ADS1292.set_fault (per frame,
+        per bit, or the clock's relative error for "clock-drift")."""
+        c = self.chips[chip]
+        c.advance_to_tick(max(x.tick for x in self.chips))   # a chip the bus has not moved yet catches up
+        c.set_fault(fault, rate)
 
     def advance(self, seconds):
         """Let time pass for both chips."""

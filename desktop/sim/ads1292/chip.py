@@ -22,6 +22,9 @@ byte transfers) lands on an integer tick, so the byte path and the vectorised
 path agree exactly on which analog samples each conversion sees.
 """
 
+import math
+from fractions import Fraction
+
 import numpy as np
 
 from desktop.sim.ads1292.convert import NO_NOISE, convert
@@ -32,9 +35,14 @@ from desktop.sim.ads1292.registers import (CONFIG1, CH1SET, CH2SET, Config, DECO
                                            WAKE_TICKS, WAKEUP, WREG, WRITABLE, frame_bytes, status_word)
 
 # Fault injection (docs/simulator.md): a chip that does not answer, a stuck DRDY,
-# corrupted status words or bits, an input beyond full scale.
+# corrupted status words or bits, an input beyond full scale, an oscillator off frequency.
+# Given at construction or switched at run time (ADS1292.set_fault).
 FAULTS = ("absent-0x00", "absent-0xff", "drdy-stuck-high", "drdy-stuck-low",
-          "status-corrupt", "bit-flips", "clipping")
+          "status-corrupt", "bit-flips", "clipping", "clock-drift")
+# `rate` of a fault when none is given: probability per frame (status-corrupt), per bit
+# (bit-flips); the oscillator's relative frequency error (clock-drift)
+DEFAULT_FAULT_RATES = {"status-corrupt": 0.01, "bit-flips": 1e-4, "clock-drift": 0.005}
+_DRDY_DEAD = ("absent-0x00", "absent-0xff", "drdy-stuck-high", "drdy-stuck-low")
 
 
 class ADS1292:
@@ -49,9 +57,10 @@ class ADS1292:
     noise : bool
         False: no input-referred noise (an ideal converter, for tests).
     fault : str or None
-        One of FAULTS (see docs/simulator.md).
+        One of FAULTS (see docs/simulator.md); :meth:`set_fault` switches it later.
     fault_rate : float
-        Probability per frame ("status-corrupt") or per bit ("bit-flips").
+        Probability per frame ("status-corrupt") or per bit ("bit-flips"); the
+        oscillator's relative frequency error ("clock-drift", e.g. -0.005).
     sclk_hz : float
         SPI clock: each transferred byte takes 8 / sclk_hz of chip time.
     strict : bool
@@ -65,12 +74,15 @@ class ADS1292:
 
     def __init__(self, chip_id=0x53, *, seed=None, fault=None, fault_rate=None,
                  sclk_hz=1_000_000, strict=True, noise=True, batch=1):
-        if fault is not None and fault not in FAULTS:
-            raise ValueError("unknown fault %r (one of %s)" % (fault, ", ".join(FAULTS)))
         self.chip_id = chip_id
-        self.fault = fault
-        self.fault_rate = fault_rate if fault_rate is not None else (
-            1e-4 if fault == "bit-flips" else 0.01)
+        self.fault, self.fault_rate = None, 0.01
+        # the oscillator: own modulator ticks per nominal tick = _num / _den (clock-drift)
+        self._num = self._den = 1
+        self._anchor = 0               # nominal tick from which the conversion schedule counts
+        self._m_next = None            # own ticks from _anchor to the next DRDY
+        self._next_drdy = None         # nominal tick of the next DRDY (None: none scheduled)
+        self._cfg_regs, self._cfg = None, None   # Config of the register map, decoded once
+        self.set_fault(fault, fault_rate)
         self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         # faults draw from a child stream so they never shift the noise sequence
         self._fault_rng = np.random.default_rng(self.rng.bit_generator.seed_seq.spawn(1)[0])
@@ -94,6 +106,7 @@ class ADS1292:
         self.start_tick = None         # tick of the last START (pin or command)
         self._cache = None             # batched codes, see _codes
         self._normals = np.zeros((0, 2))   # noise normals drawn ahead of use, see _take_normals
+        self._normals_off = 0          # of which this many rows are consumed already
         self._normals_rng = self.rng
         self._normals_used = 0         # rows of normals consumed since power-up
         self.batch = batch
@@ -107,9 +120,9 @@ class ADS1292:
         self.standby = False
         self._running = False          # START command or pin
         self._start_cmd = False
-        self._next_drdy = None
+        self._m_next = self._next_drdy = None
         self._stop_after_next = False
-        self.frame = frame_bytes(status_word(0, self._gpio_bits()), (0, 0))
+        self._set_frame(status_word(0, self._gpio_bits()), (0, 0))
         self._out_ptr = 0
         self._cmd = []                 # bytes of a multi-byte command in progress
         self._pending_out = b""       # RREG / RDATA output queued for next bytes
@@ -121,8 +134,54 @@ class ADS1292:
 
     @property
     def config(self):
-        """The current register map decoded (:class:`Config`)."""
-        return Config(self.registers)
+        """The current register map decoded (:class:`Config`); decoded again only after a change."""
+        regs = tuple(self.registers)
+        if regs != self._cfg_regs:
+            self._cfg_regs, self._cfg = regs, Config(regs)
+        return self._cfg
+
+    # ----------------------------------------------------------------- faults
+    def set_fault(self, fault, rate=None):
+        """Inject `fault` (one of FAULTS; None clears it) from the current chip time on.
+
+        `rate`: probability per frame ("status-corrupt", default 0.01) or per
+        bit ("bit-flips", 1e-4), or the oscillator's relative frequency error
+        ("clock-drift", default +0.005: the chip runs 0.5 % fast; -0.005 slow).
+        Nothing computed before the switch is served after it (the batch cache
+        is dropped; a frame already converted keeps its data, as a real one
+        would). A dead DRDY ("absent-*", "drdy-stuck-*") gives no falling edges
+        while it lasts; the chip keeps its registers and mode, so once the fault
+        is cleared a re-probe (SDATAC, RREG, WREG, RDATAC, START) works again.
+        A new clock takes effect after the conversion in progress: the pending
+        DRDY keeps its tick, the ones after it follow the new clock.
+        """
+        if fault is not None and fault not in FAULTS:
+            raise ValueError("unknown fault %r (one of %s)" % (fault, ", ".join(FAULTS)))
+        rate = DEFAULT_FAULT_RATES.get(fault, 0.01) if rate is None else float(rate)
+        if fault == "clock-drift":
+            if not -0.5 < rate < 0.5:
+                raise ValueError("clock-drift rate is a relative frequency error in (-0.5, 0.5), got %r" % rate)
+        elif not 0.0 <= rate <= 1.0:
+            raise ValueError("fault rate is a probability in [0, 1], got %r" % rate)
+        self.fault, self.fault_rate = fault, rate
+        ratio = Fraction(1.0 + rate).limit_denominator(1_000_000) if fault == "clock-drift" else Fraction(1)
+        if (ratio.numerator, ratio.denominator) != (self._num, self._den):
+            if self._m_next is not None:        # re-anchor at the pending DRDY, which stays put
+                self._anchor, self._m_next = self._next_drdy, 0
+            self._num, self._den = ratio.numerator, ratio.denominator
+        self._cache = None
+
+    @property
+    def clock_ratio(self):
+        """The oscillator's frequency over the nominal 512 kHz (1 + the clock-drift rate)."""
+        return self._num / self._den
+
+    def _nominal_tick(self, m):
+        """Nominal tick of own tick `m` counted from the schedule's anchor (the first
+        nominal tick at or after it: events land on whole ticks)."""
+        if self._num == self._den:
+            return self._anchor + m
+        return self._anchor - ((-m * self._den) // self._num)
 
     @property
     def time(self):
@@ -209,7 +268,7 @@ class ADS1292:
             raise ValueError("timeout must be >= 0 s, got %r" % (timeout,))
         if timeout == 0:
             return self.tick
-        end = int(np.ceil(self._ticks_f + timeout * F_MOD - 1e-6))
+        end = math.ceil(self._ticks_f + timeout * F_MOD - 1e-6)
         return max(end, self.tick + 1)
 
     def next_drdy_tick(self, timeout=1.0):
@@ -218,7 +277,7 @@ class ADS1292:
         and raise TimeoutError (not started, standby, chip absent, DRDY stuck,
         or the next DRDY is later)."""
         deadline = self.deadline_tick(timeout)
-        if self._drdy_dead() or self._next_drdy is None or self.standby \
+        if self.fault in _DRDY_DEAD or self._next_drdy is None or self.standby \
                 or self._next_drdy > deadline:
             self.advance_to_tick(deadline)
             raise TimeoutError("no DRDY within %.6f s" % timeout)
@@ -248,54 +307,79 @@ class ADS1292:
             cfg = self.config
             d = cfg.decimation
             single = cfg.single_shot or self._stop_after_next
-            n = 1 if single else (target - self._next_drdy) // d + 1
-            codes = self._codes(cfg, self._next_drdy, n, single)
-            self.tick = self._next_drdy + (n - 1) * d
+            if single:
+                n = 1
+            elif self._num == self._den:
+                n = (target - self._next_drdy) // d + 1
+            else:   # own ticks by `target`: conversions whose nominal tick is <= target
+                n = (((target - self._anchor) * self._num) // self._den - self._m_next) // d + 1
+            last = self._last_codes(cfg, n, single)
+            m_last = self._m_next + (n - 1) * d
+            self.tick = self._nominal_tick(m_last)
             self.conversions += n
-            self._new_frame(codes[-1])
-            self.drdy_falls += n
-            if cfg.single_shot or self._stop_after_next:
-                self._next_drdy = None         # single shot: DRDY stays low [DS §8.5.1.10]
+            self._new_frame(last)
+            if self.fault not in _DRDY_DEAD:
+                self.drdy_falls += n           # a dead DRDY pin makes no edges
+            if single:
+                self._m_next = self._next_drdy = None   # single shot: DRDY stays low [DS §8.5.1.10]
                 self._running = self._start_cmd = False
                 self._stop_after_next = False
             else:
-                self._next_drdy = self.tick + d
-        self.tick = max(self.tick, target)
+                self._m_next = m_last + d
+                self._next_drdy = self._nominal_tick(self._m_next)
+        if target > self.tick:
+            self.tick = target
 
-    def _codes(self, cfg, first, n, single):
-        """(n, 2) codes of the conversions at ticks first + i * decimation, i < n.
+    def _last_codes(self, cfg, n, single):
+        """The codes [CH1, CH2] of the last of the next n conversions (own ticks _m_next +
+        i * decimation, i < n); the n conversions' noise rows are consumed.
 
         Served from the batch cache when it holds them, was computed for the
-        same inputs and its noise rows are the next unused ones; else computed
-        with up to `batch` conversions ahead (see :attr:`batch`).
+        same inputs, clock and schedule and its noise rows are the next unused
+        ones; else computed with up to `batch` conversions ahead (see :attr:`batch`).
         """
         d = cfg.decimation
-        temp = self._temp if self._temp is not None else self.temperature_c
+        m0 = self._m_next
         # everything convert() reads besides the tick and the noise rows
-        key = (tuple(self.registers), self._step, self._grid_tick0, self.noise,
-               self.fault == "clipping", None if self._temp is not None else self.temperature_c)
+        key = (self._cfg_regs, self._step, self._grid_tick0, self.noise, self.fault == "clipping",
+               None if self._temp is not None else self.temperature_c, self._anchor, self._num, self._den)
         c = self._cache
         if c is not None and c[0] == key and c[1] is self._volts and c[2] is self._temp \
                 and self._normals_rng is self.rng:
-            i, r = divmod(first - c[3], d)
-            if r == 0 and i >= 0 and i + n <= len(c[5]) and c[4] + i == self._normals_used:
+            i, r = divmod(m0 - c[3], d)
+            rows = c[5]
+            if r == 0 and i >= 0 and i + n <= len(rows) and c[4] + i == self._normals_used:
                 self._take_normals(n)
-                return c[5][i:i + n]
+                return rows[i + n - 1]
+        first = self._nominal_tick(m0)
+        drift = self._num != self._den
         m = n
         if self._batch > 1 and not single:      # single shot: the next START restarts the filter
             grid_end = self._grid_tick0 + (len(self._volts) - 1) * self._step
-            m = max(n, min(self._batch, (grid_end - first) // d + 1))
-        codes = convert(self._volts, temp, cfg, first_tick=first, n=m, step=self._step,
+            ahead = (grid_end - first) // d + 1
+            if drift:       # a fast clock fits more conversions in the grid
+                ahead = (((grid_end - self._anchor) * self._num) // self._den - m0) // d + 1
+            m = max(n, min(self._batch, ahead))
+        kw = dict(first_tick=first, n=m)
+        if drift:   # the conversions' nominal ticks, on whole ticks (a sinc3 window of nominal length)
+            own = m0 + d * np.arange(m, dtype=np.int64)
+            kw = dict(ticks=self._anchor - ((-own * self._den) // self._num))
+        temp = self._temp if self._temp is not None else self.temperature_c
+        codes = convert(self._volts, temp, cfg, step=self._step,
                         rng=NO_NOISE, normals=self._peek_normals(m) if self.noise else None,
-                        grid_tick0=self._grid_tick0, clipping=self.fault == "clipping")
-        self._cache = (key, self._volts, self._temp, first, self._normals_used, codes) if m > n else None
+                        grid_tick0=self._grid_tick0, clipping=self.fault == "clipping", **kw)
+        rows = codes.tolist()                   # Python ints: a frame is built from one row
+        self._cache = (key, self._volts, self._temp, m0, self._normals_used, rows) if m > n else None
         self._take_normals(n)
-        return codes[:n]
+        return rows[n - 1]
 
     def _peek_normals(self, m):
         """The next `m` rows of noise normals from `rng`, not yet consumed: (m, 2)."""
         if self._normals_rng is not self.rng:   # rng replaced: draw from the new one
             self._normals, self._normals_rng, self._cache = np.zeros((0, 2)), self.rng, None
+            self._normals_off = 0
+        if self._normals_off:                   # drop the consumed rows
+            self._normals, self._normals_off = self._normals[self._normals_off:], 0
         short = m - len(self._normals)
         if short > 0:
             # draws exactly what is missing: with batch = 1 this is the unbatched draw
@@ -305,19 +389,31 @@ class ADS1292:
     def _take_normals(self, n):
         """Consume `n` rows of normals (the conversions they belong to happened)."""
         if self.noise:
-            self._normals = self._normals[n:]
+            self._normals_off += n
         self._normals_used += n
 
     def _new_frame(self, codes):
-        status = status_word(self.registers[LOFF_STAT], self.registers[GPIO] & 0x03)
+        regs = self.registers
+        status = 0xC00000 | (regs[LOFF_STAT] & 0x1F) << 15 | (regs[GPIO] & 0x03) << 13   # status_word
         if self.fault == "status-corrupt" and self._fault_rng.random() < self.fault_rate:
             status ^= 0x300000 | int(self._fault_rng.integers(1 << 13))
-        self.frame = frame_bytes(status, codes)
+        self._set_frame(status, codes)
         self._out_ptr = 0
         self._drdy_low = True
 
+    def _set_frame(self, status, codes):
+        # the bytes are built when read: most conversions are replaced unread
+        self._frame, self._frame_words = None, (status, codes)
+
+    @property
+    def frame(self):
+        """The latest conversion's 9-byte frame (status, CH1, CH2)."""
+        if self._frame is None:
+            self._frame = frame_bytes(*self._frame_words)
+        return self._frame
+
     def _drdy_dead(self):
-        return self.fault in ("absent-0x00", "absent-0xff", "drdy-stuck-high", "drdy-stuck-low")
+        return self.fault in _DRDY_DEAD
 
     # ------------------------------------------------------------------ pins
     @property
@@ -373,7 +469,9 @@ class ADS1292:
             return
         self._running = True
         self._stop_after_next = False
-        self._next_drdy = self.tick + delay + SETTLE_TICKS[min(self.config.dr, 6)]
+        # the chip's own clock times the settling and every conversion after it
+        self._anchor, self._m_next = self.tick, delay + SETTLE_TICKS[min(self.config.dr, 6)]
+        self._next_drdy = self._nominal_tick(self._m_next)
         self.start_tick = self.tick + delay
 
     # ------------------------------------------------------------------- SPI
@@ -394,11 +492,27 @@ class ADS1292:
         if not self._selected or self._power_down:
             self.clock(len(data))
             return b"\xff" * len(data)
-        out = bytearray()
-        for b in data:
-            self._drdy_low = False          # first SCLK falling edge raises DRDY
-            out.append(self._shift(b))
-            self.advance(8 / self.sclk_hz)
+        n = len(data)
+        step = 8 / self.sclk_hz * F_MOD
+        if self.rdatac and not (self._pending_out or self._cmd or self._wreg_left or self._swallow) \
+                and not any(data) and (self._next_drdy is None or self.standby
+                                       or self._next_drdy > self._ticks_f + (n + 1) * step):
+            # RDATAC read, DIN low, no conversion completes meanwhile: the frame's bytes in
+            # one go, time advanced exactly as byte by byte
+            p = self._out_ptr % FRAME_BYTES
+            frame = self.frame
+            out = (frame[p:] + frame * (n // FRAME_BYTES + 1))[:n]
+            self._out_ptr += n
+            self._drdy_low = False
+            for _ in range(n):
+                self._ticks_f += step
+            self._run_until(int(self._ticks_f + 1e-6))
+        else:
+            out = bytearray()
+            for b in data:
+                self._drdy_low = False          # first SCLK falling edge raises DRDY
+                out.append(self._shift(b))
+                self.advance(8 / self.sclk_hz)
         if self.fault == "absent-0x00":
             return bytes(len(data))
         if self.fault == "absent-0xff":
@@ -475,7 +589,7 @@ class ADS1292:
                     self._begin_conversions(delay=WAKE_TICKS)
         elif b == STANDBY:
             self.standby = True
-            self._next_drdy = None
+            self._m_next = self._next_drdy = None
         elif b == RESET:
             start_pin = self._start_pin
             self._power_on_reset()

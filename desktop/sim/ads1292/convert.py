@@ -74,8 +74,8 @@ def channel_input(x, mux, channel, cfg, temp_c, ticks):
     return np.zeros(x.shape)                                  # short, RLD, test off, IN3
 
 
-def convert(volts, temp_c, cfg, *, first_tick, n, rng, step=8, grid_tick0=0,
-            clipping=False, normals=None):
+def convert(volts, temp_c, cfg, *, first_tick=None, n=None, rng, step=8, grid_tick0=0,
+            clipping=False, normals=None, ticks=None):
     """Vectorised conversion results of a continuously running chip.
 
     Parameters
@@ -90,6 +90,10 @@ def convert(volts, temp_c, cfg, *, first_tick, n, rng, step=8, grid_tick0=0,
         Modulator tick of the first DRDY; later ones follow every decimation.
     n : int
         Number of conversions.
+    ticks : (n,) int array or None
+        Instead of `first_tick` and `n`: the DRDY tick of each conversion, in
+        any spacing (a chip whose clock drifts, chip.py); each is the sinc3 of
+        nominal length ending at its tick.
     rng : numpy.random.Generator
         Draws the ADC's input-referred noise, (n, 2) normals in conversion order.
     clipping : bool
@@ -108,22 +112,32 @@ def convert(volts, temp_c, cfg, *, first_tick, n, rng, step=8, grid_tick0=0,
     d = cfg.decimation
     if d % step:
         raise ValueError("analog grid step %d does not divide decimation %d" % (step, d))
-    rel = first_tick - grid_tick0
-    w = sinc3_kernel(d, step, rel % step)
-    g = rel // step + np.arange(n) * (d // step)               # grid sample of each DRDY
+    if ticks is None:
+        ticks = first_tick + np.arange(n, dtype=np.int64) * d
+        phases = [(first_tick - grid_tick0) % step]             # one phase: regular spacing
+    else:
+        ticks = np.asarray(ticks, dtype=np.int64)
+        n = len(ticks)
+        phases = np.unique((ticks - grid_tick0) % step)
     volts = np.asarray(volts, dtype=float)
     last = volts.shape[0] - 1
     x = np.zeros((n, 2))
     t = np.zeros(n)
     temp = None if temp_c is None or np.ndim(temp_c) == 0 else np.asarray(temp_c, float)
-    for j, wj in enumerate(w):                                 # taps, not samples
-        idx = np.clip(g - j, 0, last)
-        x += wj * volts[idx]
-        if temp is not None:
-            t += wj * temp[idx]
+    rel = ticks - grid_tick0
+    for phase in phases:                                       # conversions by their phase in a grid sample
+        sel = slice(None) if len(phases) == 1 else (rel % step == phase)
+        w = sinc3_kernel(d, step, phase)
+        g = rel[sel] // step                                   # grid sample of each DRDY
+        xs, ts = x[sel], t[sel]
+        for j, wj in enumerate(w):                             # taps, not samples
+            idx = np.clip(g - j, 0, last)
+            xs += wj * volts[idx]
+            if temp is not None:
+                ts += wj * temp[idx]
+        x[sel], t[sel] = xs, ts
     if temp is None:
         t[:] = 25.0 if temp_c is None else float(temp_c)
-    ticks = first_tick + np.arange(n, dtype=np.int64) * d
     if normals is None:
         normals = rng.standard_normal((n, 2))
     noise = normals * (NOISE_UV_GAIN6[min(cfg.dr, 6)] * 1e-6)

@@ -98,16 +98,12 @@ class Config:
         self.power_down = tuple(bool(c & 0x80) for c in chs)
         self.gain = tuple(GAINS[(c >> 4) & 0x07] if (c >> 4) & 0x07 < 7 else 6 for c in chs)
         self.mux = tuple(c & 0x0F for c in chs)
+        self.decimation = DECIMATION[min(self.dr, 6)]   # modulator ticks per conversion
 
     @classmethod
     def default(cls, dr=5, gain=1, mux=(MUX_NORMAL, MUX_NORMAL), vref_4v=False):
         """The configuration :func:`standard_registers` describes."""
         return cls(standard_registers(dr, gain, mux, vref_4v))
-
-    @property
-    def decimation(self):
-        """Modulator ticks per conversion."""
-        return DECIMATION[min(self.dr, 6)]
 
     @property
     def rate(self):
