@@ -93,13 +93,43 @@ def to_sensor(q, v_world):
     return out
 
 
-def scan_product(dq):
-    """Inclusive prefix product dq_0 (x) dq_1 (x) ... (x) dq_k, (N, 4)."""
-    q = np.array(dq, dtype=float)
+SCAN_BLOCK = 1 << 16      # up to this many points (164 s at 400 Hz) scan_product is one scan
+_ROW = 64                 # longer: rows of this many points, multiplied out along the row
+
+
+def _scan(q):
+    """Hillis-Steele inclusive prefix product in place along axis -2 of (..., N, 4)."""
     s = 1
-    while s < len(q):
-        q[s:] = qmul(q[:-s], q[s:])
+    while s < q.shape[-2]:
+        q[..., s:, :] = qmul(q[..., :-s, :], q[..., s:, :])
         s *= 2
+    return q
+
+
+def scan_product(dq):
+    """Inclusive prefix product dq_0 (x) dq_1 (x) ... (x) dq_k, (N, 4).
+
+    Up to SCAN_BLOCK points one Hillis-Steele scan (log2(N) vectorised passes over all
+    points). Longer motions (hours) in two levels: the points as rows of _ROW, each row's
+    products along it (_ROW vectorised steps over N / _ROW rows), the rows' totals scanned,
+    then each row turned by the product of the rows before it: about 2 N quaternion
+    products instead of N log2(N) (the same products, associated otherwise: equal to
+    rounding).
+    """
+    q = np.array(dq, dtype=float)
+    n = len(q)
+    if n <= SCAN_BLOCK:
+        q = _scan(q)
+    else:
+        rows = -(-n // _ROW)
+        ident = np.tile([1.0, 0.0, 0.0, 0.0], (rows * _ROW - n, 1))
+        # column j of every row side by side in memory: (_ROW, rows, 4)
+        qc = np.ascontiguousarray(np.concatenate([q, ident]).reshape(rows, _ROW, 4).transpose(1, 0, 2))
+        for j in range(1, _ROW):
+            qc[j] = qmul(qc[j - 1], qc[j])
+        carry = _scan(qc[-1].copy())        # the product of every row up to and with this one
+        qc[:, 1:] = qmul(carry[None, :-1], qc[:, 1:])
+        q = qc.transpose(1, 0, 2).reshape(-1, 4)[:n]
     return q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
@@ -300,10 +330,13 @@ def make_motion(name, seconds, rng, *, rate=1.0, coverage=1.0, field_dir=(1.0, 0
         q = qmul(roll, align(d, field_dir[None, :]))          # R d = field_dir, random roll
         return Motion(name, times, q, hold=True, lever_m=lever_m)
     n = int(np.ceil(seconds * CONTROL_RATE)) + 2
-    t = np.arange(n) / CONTROL_RATE
     if name == "stationary":
-        q = np.repeat(random_quaternions(rng, 1), n, axis=0)
-    elif name == "spin":
+        # one attitude: two control points span the motion (nlerp between equal
+        # quaternions gives the quaternion itself, as n equal points did)
+        return Motion(name, [0.0, (n - 1) / CONTROL_RATE], np.repeat(random_quaternions(rng, 1), 2, axis=0),
+                      lever_m=lever_m)
+    t = np.arange(n) / CONTROL_RATE
+    if name == "spin":
         q0 = random_quaternions(rng, 1)
         q = qmul(qexp(np.outer(2 * np.pi * rate * t, [0.0, 0.0, 1.0])), np.repeat(q0, n, axis=0))
     elif name == "guided":
@@ -312,8 +345,7 @@ def make_motion(name, seconds, rng, *, rate=1.0, coverage=1.0, field_dir=(1.0, 0
         q = _hand_free(rng, t, rate)
     else:
         q = _hand_cap(rng, t, rate, coverage, field_dir)
-    sway = _sway(rng, n, 1 / CONTROL_RATE, sway_m) if name != "stationary" else None
-    return Motion(name, t, q, lever_m=lever_m, sway=sway)
+    return Motion(name, t, q, lever_m=lever_m, sway=_sway(rng, n, 1 / CONTROL_RATE, sway_m))
 
 
 def rotation_rate(motion, t):

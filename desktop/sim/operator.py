@@ -35,6 +35,7 @@ class LiveOperator:
         q0 = random_quaternions(rng, 1)[0]
         # segments: (start s, mode, q at the start, the hand stretch or None)
         self.segments = [(0.0, mode, q0, self._hand(q0) if mode == "hand" else None)]
+        self._starts = np.zeros(1)  # the segments' start times, for the search
         self.computed = 0.0         # the latest time asked for: switches never go before it
 
     @property
@@ -49,7 +50,11 @@ class LiveOperator:
         if mode == self.mode:
             return
         q = self.orientation(np.array([at]))[0]
-        self.segments.append((at, mode, q, self._hand(q) if mode == "hand" else None))
+        self._append((at, mode, q, self._hand(q) if mode == "hand" else None))
+
+    def _append(self, segment):
+        self.segments.append(segment)
+        self._starts = np.append(self._starts, segment[0])
 
     def _hand(self, q_start):
         """A stretch of hand motion turned so that it starts at q_start."""
@@ -73,7 +78,7 @@ class LiveOperator:
             self.computed = max(self.computed, float(t.max()))
         self._extend_hands(t)
         out = np.empty((len(t), 4))
-        starts = np.array([s[0] for s in self.segments])
+        starts = self._starts
         idx = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(starts) - 1)
         for k in np.unique(idx):
             sel = idx == k
@@ -85,12 +90,12 @@ class LiveOperator:
         """A hand stretch that runs out continues as a fresh one (the wrist does not stop)."""
         if not len(t):
             return
+        end = t.max()
         last = self.segments[-1]
-        if last[1] == "hand" and t.max() - last[0] > HAND_S:
-            at = last[0] + HAND_S
+        while last[1] == "hand" and end - last[0] > HAND_S:
             q = self._segment_q(last, np.array([HAND_S]))[0]
-            self.segments.append((at, "hand", q, self._hand(q)))
-            self._extend_hands(t)
+            self._append((last[0] + HAND_S, "hand", q, self._hand(q)))
+            last = self.segments[-1]
 
     def position(self, t, q=None):
         """(N, 3) sensor position, m: on a lever from the wrist (Motion.position without sway)."""
