@@ -66,7 +66,8 @@ _SPOIL = const(6)     # 1 when the open block holds a bad frame
 DISCARDED = const(7)  # blocks discarded: a bad frame, or a DRDY gap (account_gap)
 BLOCKS = const(8)     # blocks completed (wraps at 2**30): the ring's sequence numbers
 MISSED = const(9)     # conversions that passed unseen (polled DRDY): account_gap
-_NSTATE = const(10)
+LASTBAD = const(10)   # the last bad header: chip << 8 | its first byte (health.py names it)
+_NSTATE = const(11)
 MAX_WINDOW = const(64)   # window * 2**23 must stay below 2**30 (small int in the ISR)
 # Counters wrap from 2**30 - 1 to 0. On a 32-bit port that is the largest small int, so
 # the handler compares before it increments: (n + 1) & mask would build 2**30 first, a
@@ -179,6 +180,7 @@ class Acquisition:
             n = st[BADSYNC]
             st[BADSYNC] = n + 1 if n != _WRAP else 0
             st[_SPOIL] = 1
+            st[LASTBAD] = f0[0] if (f0[0] & _STATUS_MASK) != _STATUS_SYNC else 256 | f1[0]
         else:
             # 24-bit two's complement, MSB first: v - 2**24 when bit 23 is set,
             # with shifts only (written out four times: a call per channel costs

@@ -11,19 +11,29 @@ pass (~35k instructions on a Cortex-M, docs/firmware.md) is paid 50 times a
 second, not once per sample.
 The serial commands are commands.py; every state a user can see is also in
 their `status`.
+
+Nothing stops the loop (docs/reliability.md): an exception in a pass is
+counted, reported (status, an `error` event) and the loop goes on; a
+calibration session it interrupts is cancelled. ADC faults after boot are
+named by health.py and re-probed until they clear; samples that cannot be the
+field are screened out (screen.py); boots that never become healthy bring the
+next one up in safe mode (bootguard.py).
 """
 
 import gc
 
+import bootguard
 import commands
 import config as cfgmod
 import store
 from acquisition import Acquisition
 from ads1292 import ADS1292Pair
 from button import Button, SHORT, LONG
+from health import Health
 from led import Led
 import led as ledp
 from protocol import VERSION, Protocol, ProtocolError, json_number
+from screen import Screen
 from survey import Survey, RotatingLog
 from shared.calibration import Calibration
 import calibrate
@@ -35,6 +45,8 @@ _HOUSE_MS = 20   # a pass every 20 ms: button (debounce is 30 ms), serial, LED, 
 _SOLVE = "solve"
 _SAMPLE_CAL = "sample_cal"
 _SAMPLE = "sample"
+_ERROR_EVENT_MS = 1000   # at most one `error` event a second (all are counted)
+_SAFE_AFTER_ERRORS = 50  # passes in a row failing with a calibration applied: drop it (safe mode)
 
 
 class App:
@@ -60,6 +72,17 @@ class App:
         self._gap_cb = self._on_gap
         self._want_f = False
         self.cal_w = None
+        self.errors = 0            # exceptions caught in the main loop since boot
+        self.last_error = None
+        self._errors_in_row = 0
+        self._error_event_ms = None
+        self.fault_code = None
+        self._last_code = None
+        self.health = None
+        self.clipped_warned = False
+        starts, crash = bootguard.begin(board.root)
+        self.safe_mode = bootguard.safe_reason(starts, crash)
+        self._healthy = False
         body, _src, problem = store.load(board.root, "config")
         self.cfg, self.config_problems = cfgmod.from_dict(body if body is not None else {})
         if problem:
@@ -68,10 +91,13 @@ class App:
         self._load_cal()
         self.acq = Acquisition(board, self.cfg["decim"], self.cfg["window"])
         self.adc = None
+        self._reprobe_at = None
+        self._verifying = False
         self._start_adc()
         self._setup_pipeline()
         self.proto.event("boot", {"fw": FIRMWARE_VERSION, "proto": VERSION, "calibrated": self.cal is not None,
-                                  "cal_source": self.cal_source, "fault": self.fault})
+                                  "cal_source": self.cal_source, "fault": self.fault,
+                                  "safe_mode": self.safe_mode})
 
     # ****** setup ******
     def _load_cal(self):
@@ -80,22 +106,37 @@ class App:
         self.cal_w = None
         self.cal_source = src
         self.cal_problem = problem
+        if self.safe_mode and self.cal is not None:
+            # the record stays on the flash: clear-cal, set-cal or a healthy reboot decide
+            self.cal = None
+            self.cal_source = "stored, not applied: safe mode"
 
-    def _start_adc(self):
+    def _start_adc(self, reprobe=False):
+        """Probe and start the chips (a re-probe resets them first), or reconfigure running ones."""
         c = self.cfg
         gains = (c["gain_x"], c["gain_y"], c["gain_z"])
         try:
             if self.adc is None:
                 self.adc = ADS1292Pair(self.board, self.acq, c["rate"], gains, c["vref_4v"])
                 self.adc.begin()
+            elif reprobe:
+                self.adc.begin()
             else:
                 self.adc.reconfigure(c["rate"], gains)
             # again after a reconfigure: a polling HAL restarts its gap clock at the new rate
             self.board.attach_drdy(self.acq.isr, self.adc.rate, self.acq.account_gap)
-            self.fault = None
+            now = self.board.ticks_ms()
+            if self.health is None:
+                self.health = Health(self.acq, self.adc.rate, now)
+            else:
+                self.health.rate_changed(self.adc.rate, now)
+            # a chip that failed answers again: it is cleared once conversions flow healthy
+            # for a check period (health.py), not on its registers alone (a stuck DRDY
+            # passes a probe)
+            self._verifying = self.fault is not None
         except OSError as e:
-            self.fault = str(e)
-            self.led.set(ledp.FAULT)
+            self._verifying = False
+            self._set_fault("adc_probe", str(e))
 
     def _setup_pipeline(self):
         c = self.cfg
@@ -106,6 +147,7 @@ class App:
         self._drain = max(_DRAIN, 2 * (self._house_idles // c["decim"] + 1))
         self.survey = Survey(c, c["window"], self.sample_hz)
         self.scale = (c["scale_x"], c["scale_y"], c["scale_z"])
+        self.screen = Screen(self.scale, c["window"], c["spike_nt"])
         if c["log"] and self.log is None:
             self.log = RotatingLog(self.board.root, c["log_file_bytes"], c["log_files"], c["log_reserve_bytes"])
         elif not c["log"] and self.log is not None:
@@ -113,7 +155,7 @@ class App:
             self.log = None
         self._outputs()
         if not self.fault:
-            self.led.set(ledp.SURVEY if self.cal is not None else ledp.UNCALIBRATED)
+            self._steady_led()
 
     def _outputs(self):
         # |h_c| per sample is only needed when a block goes out (stream or log);
@@ -128,7 +170,15 @@ class App:
     def run(self):
         b = self.board
         while not self.quit and not b.quit_requested():
-            self.step()
+            try:
+                self.step()
+                self._errors_in_row = 0
+            except Exception as e:  # noqa: BLE001 - nothing stops the instrument (docs/reliability.md)
+                self._loop_error(e)
+            if not self._healthy and self._errors_in_row == 0 and \
+                    b.ticks_diff(b.ticks_ms(), self.boot_ms) >= bootguard.HEALTHY_MS:
+                self._healthy = True
+                bootguard.healthy(b.root)
             self.wait()
         if self.log is not None:
             self.log.close()
@@ -158,12 +208,88 @@ class App:
             idle()
             n -= 1
 
+    def _loop_error(self, e):
+        """An exception escaped a pass: count it, say it, cancel what it interrupted, go on."""
+        self.errors += 1
+        self._errors_in_row += 1
+        self.last_error = "%s: %s" % (e.__class__.__name__, e)
+        if isinstance(e, MemoryError):
+            gc.collect()
+        b = self.board
+        now = b.ticks_ms()
+        if self._error_event_ms is None or b.ticks_diff(now, self._error_event_ms) >= _ERROR_EVENT_MS:
+            self._error_event_ms = now
+            self.proto.event("error", {"where": "main_loop", "error": self.last_error[:200], "count": self.errors})
+        if self.session is not None:
+            s = self._end_session()
+            s.cancel()
+            s.reason = "internal_error"
+            s.message = self.last_error[:200]
+            self.last_result = {"state": s.state, "reason": s.reason, "msg": s.message}
+            self.proto.event("cal", self.last_result)
+            self.led.flash(ledp.FAILED)
+        if self._errors_in_row >= _SAFE_AFTER_ERRORS and self.cal is not None:
+            # defence in depth: validation should make this unreachable
+            self.safe_mode = "the main loop failed %d times in a row with the calibration applied: %s" % (
+                self._errors_in_row, self.last_error[:120])
+            self.cal = None
+            self.cal_source = "stored, not applied: safe mode"
+            self._outputs()
+            self._steady_led()
+            self.proto.event("safe_mode", {"reason": self.safe_mode})
+
+    def _set_fault(self, code, msg):
+        b = self.board
+        now = b.ticks_ms()
+        first = self.fault is None
+        self.fault = msg
+        self.fault_code = code
+        if self.health is not None and first:
+            self.health.fault_seen(now, b.ticks_diff)
+        self._reprobe_at = now
+        self.led.set(ledp.FAULT)
+        if first or code != self._last_code:
+            self.proto.event("fault", {"code": code, "msg": msg})
+        self._last_code = code
+        if self.session is not None:
+            s = self._end_session()
+            s.cancel()
+            s.reason = "fault"
+            s.message = msg
+            self.last_result = {"state": s.state, "reason": "fault", "msg": msg}
+            self.proto.event("cal", self.last_result)
+
+    def _check_adc(self, now):
+        """Health of a running ADC; re-probe a faulty one every health.reprobe_ms."""
+        b = self.board
+        if self.fault and not self._verifying:
+            ms = self.health.reprobe_ms if self.health is not None else 2000
+            if self._reprobe_at is None or b.ticks_diff(now, self._reprobe_at) >= ms:
+                self._reprobe_at = now
+                self._start_adc(reprobe=True)
+            return
+        if self.health is None:
+            return
+        problem = self.health.check(now, b.ticks_diff)
+        if problem is not None:
+            self._verifying = False
+            self._set_fault(problem[0], problem[1])
+        elif self._verifying and self.health.flowing:
+            self._verifying = False
+            self.health.cleared(now)
+            self.proto.event("fault", {"code": None, "cleared": self.fault_code})
+            self.fault = None
+            self.fault_code = None
+            self._reprobe_at = None
+            self._setup_pipeline()
+
     def step(self):
         b = self.board
-        if not self.fault:
+        if not self.fault or self._verifying:
             n = self.acq.poll(self._sample_cb, self._drain, self._gap_cb)
             if n:
                 b.busy(_SAMPLE_CAL if self.session is not None else _SAMPLE, n)
+        self._check_adc(b.ticks_ms())
         ev = self.button.poll()
         if ev == SHORT:
             if self.session is None:
@@ -196,10 +322,22 @@ class App:
         self.led.update()
 
     def _on_gap(self):
+        self.screen.reset()
         if self.session is not None:
             self.session.break_chain()
 
-    def _on_sample(self, sx, sy, sz, st):
+    def _on_sample(self, rx, ry, rz, rt):
+        sc = self.screen
+        clipped = sc.clipped
+        if not sc.push(rx, ry, rz, rt):
+            if sc.clipped != clipped and self.session is not None:
+                self.session.clipped += 1
+                self.session.clip_axis = sc.clip_axis
+            return
+        sx = sc.x
+        sy = sc.y
+        sz = sc.z
+        st = sc.t
         s = self.session
         if s is not None:
             s.sample(sx, sy, sz)
@@ -253,7 +391,7 @@ class App:
         if self.session is not None:
             raise ProtocolError("busy", "calibration already in progress")
         if self.fault:
-            raise ProtocolError("fault", "ADC fault: " + self.fault)
+            raise ProtocolError("fault", "ADC fault (%s): %s" % (self.fault_code, self.fault))
         c = self.cfg
         period_ms = 1000.0 * c["decim"] / c["rate"]
         self.session = calibrate.Session(c, self.scale, c["window"], period_ms, None, self.board.ticks_ms())
@@ -310,10 +448,22 @@ class App:
         return s
 
     def _steady_led(self):
-        self.led.set(ledp.SURVEY if self.cal is not None else ledp.UNCALIBRATED)
+        if self.fault:
+            self.led.set(ledp.FAULT)
+        elif self.safe_mode:
+            self.led.set(ledp.SAFE)
+        else:
+            self.led.set(ledp.SURVEY if self.cal is not None else ledp.UNCALIBRATED)
+
+    def _leave_safe_mode(self):
+        """The operator chose a calibration (set-cal, clear-cal, a new one): safe mode has done its job."""
+        if self.safe_mode:
+            self.safe_mode = None
+            bootguard.healthy(self.board.root)
 
     def install(self, cal):
         """Make cal the active calibration and store it; (saved, error)."""
+        self._leave_safe_mode()
         self.cal = cal
         self._outputs()
         self.cal_source = "new"
@@ -324,11 +474,14 @@ class App:
             return True, None
         except MemoryError:   # the record is active; the old file stays until a save succeeds
             return False, "no memory to write cal.json"
-        except OSError as e:
-            return False, str(e)
+        except (OSError, ValueError) as e:   # ValueError: a store older than its OSError contract
+            return False, str(e) or e.__class__.__name__
 
     def clear_calibration(self):
+        """Forget the calibration, on the flash first: OSError (read-only, ...) leaves it in force,
+        so what the next boot loads is what the device says now."""
         store.remove(self.board.root, "cal")
+        self._leave_safe_mode()
         self.cal = None
         self._outputs()
         self.cal_source = None
@@ -353,11 +506,18 @@ class App:
 
 
 def start(hal):
-    """Boot on real hardware: config.json -> hal.Board(cfg) -> App, unless the button is held."""
+    """Boot on real hardware: config.json -> hal.Board(cfg) -> App, unless the button is held.
+
+    An exception that escapes the app anyway (its constructor, a HAL) is written to
+    boot.txt before it reaches the REPL: the next boot comes up in safe mode."""
     body, _src, _problem = store.load("", "config")
     cfg, _problems = cfgmod.from_dict(body or {})
     board = hal.Board(cfg)
     if board.button():
         print("fluxcal: button held at boot, staying in the REPL")
         return None
-    App(board).run()
+    try:
+        App(board).run()
+    except Exception as e:
+        bootguard.crashed(board.root, "%s: %s" % (e.__class__.__name__, e))
+        raise

@@ -99,6 +99,8 @@ class Session:
         self.message = None
         self.temp_sum = 0.0
         self.temp_n = 0
+        self.clipped = 0            # samples at the ADC's full scale (screen.py; not fitted)
+        self.clip_axis = None
         self._fresh = True          # no previous sample to compare with
         self._px = self._py = self._pz = 0
         self._dist_run = 0
@@ -250,6 +252,7 @@ class Session:
             "rej_dist": self.rej_dist,
             "rej_cap": self.rej_cap,
             "removed": self.removed,
+            "clipped": self.clipped,
             "ready": self.ready(),
         }
 
@@ -260,6 +263,12 @@ class Session:
 
     def finish(self):
         """Solve and check. Returns (cal in code units, None, None) or (None, reason, message)."""
+        # Clipping first: the orientations where the ADC saturates are missing from the fit
+        # and would be wrong in the survey, whatever the residual says.
+        if self.clipped * CLIP_FRACTION > self.seen + self.clipped:
+            return self._fail("clipped", "%d samples hit the ADC's full scale%s: lower the PGA gain (gain_x/y/z)"
+                              " or keep magnets and iron away; the sensor saturates there"
+                              % (self.clipped, "" if self.clip_axis is None else " on " + "xyz"[self.clip_axis]))
         try:
             cal = self._solve()
         except FitError as e:
@@ -283,6 +292,9 @@ class Session:
     def check(self, cal):
         """Acceptance thresholds; (reason, message) for the first that fails, else None."""
         return check_calibration(cal, self.cfg, self.k)
+
+
+CLIP_FRACTION = 200   # more than 1 in 200 samples clipped refuses the calibration
 
 
 def _number(d, key):

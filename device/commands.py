@@ -43,6 +43,10 @@ def status(app, args):
     out = {
         "state": "fault" if app.fault else ("calibrating" if app.session else "survey"),
         "fault": app.fault,
+        "fault_code": app.fault_code,
+        "safe_mode": app.safe_mode,
+        "errors": app.errors,
+        "last_error": app.last_error,
         "calibrated": app.cal is not None,
         "cal_source": app.cal_source,
         "cal_problem": app.cal_problem,
@@ -63,6 +67,10 @@ def status(app, args):
         out["discarded"] = acq.discarded
         out["gaps"] = acq.gaps
         out["samples"] = acq.samples
+        out["spikes"] = app.screen.spikes
+        out["clipped"] = app.screen.clipped
+        if app.health is not None:
+            out["adc_faults"] = app.health.faults
     if app.session is not None:
         out["cal"] = app.session.progress()
     if app.log is not None:
@@ -97,7 +105,11 @@ def set_cal(app, args):
 
 def clear_cal(app, args):
     _idle(app)
-    app.clear_calibration()
+    try:
+        app.clear_calibration()
+    except OSError as e:
+        raise ProtocolError("io_error", "cal.json could not be removed (%s): the calibration stays in force"
+                            % (e,))
     return {}
 
 

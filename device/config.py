@@ -63,6 +63,9 @@ SCHEMA = {
     "min_observability": (0.02, "float", 0.0, 1.0),
     "max_predicted_nt": (5.0, "float", 0.01, 10000.0),
     "outlier_nt": (50.0, "float", 1.0, 100000.0),  # disturbance gate vs provisional fit
+    # a decimated sample off the line through both neighbours by more than this (plus the
+    # bend the motion allows) is a flipped bit, not the field (screen.py, docs/reliability.md)
+    "spike_nt": (30.0, "float", 1.0, 100000.0),
     "solve_every_s": (5, "int", 1, 600),          # provisional solve period
     "max_cal_s": (300, "int", 10, 3600),
     # survey
@@ -98,6 +101,11 @@ def check(key, value):
         return None
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueError("%s must be a number" % key)
+    # before any int() or float(): int(inf) and float(10**400) raise OverflowError, not
+    # ValueError; a number outside every range here is refused as what it is
+    if not (-1e15 < value < 1e15):   # also NaN
+        raise ValueError("%s=%s out of range %r..%r" % (key, "nan" if value != value else
+                                                        ("huge" if value > 0 else "-huge"), lo, hi))
     if kind == "int":
         if value != int(value):
             raise ValueError("%s must be an integer" % key)

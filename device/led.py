@@ -10,7 +10,8 @@ COLLECTING = (250, 250)               # 2 Hz: keep rotating
 ENOUGH = (60, 90)                     # fast flicker: coverage reached, press to finish
 DONE = (2000, 0)                      # solid 2 s: calibration accepted
 FAILED = (100, 100, 100, 100, 100, 100, 800, 400)  # triple blink, twice
-FAULT = (50, 50)                      # ADC not answering
+FAULT = (50, 50)                      # ADC fault: not answering, DRDY stuck, bad frames
+SAFE = (100, 100, 100, 1700)          # double blip: safe mode, the stored calibration not applied
 
 
 class Led:

@@ -5,16 +5,40 @@
     cal.correct(x, y, z)      # -> (x, y, z) in the output unit (nT)
     cal.magnitude(x, y, z)    # -> |h_c|
     d = cal.to_dict()         # {"version": 1, "matrix": 3x3 row-major, "offset": 3, "field": nT, ...}
-    cal = Calibration.from_dict(d)   # validated: ValueError naming the problem
+    cal = Calibration.from_dict(d)   # validated deeply: ValueError naming the problem
 
 ``offset`` is in the raw input unit (ADC codes, or nT for a file), ``matrix``
 maps that unit to the output unit, ``field`` is the magnitude the calibration
 was fitted to (the known local field, or the fitted radius).
+
+Every record that enters from outside (the wire's set-cal, cal.json at boot,
+a file on the laptop) goes through from_dict, the one validator: every field,
+nested ones included, against bounds a magnetometer can have. A record that
+passes cannot make the survey raise later (docs/reliability.md, row "set-cal
+bricks"). The constructor, used by the fit itself, checks only what the
+arithmetic needs.
 """
 
 import math
 
 FORMAT_VERSION = 1
+
+FIELD_RANGE_NT = (1000.0, 100000.0)   # the Earth's field is 22,000-67,000 nT
+# |offset| in the input unit: the ADS1292's full scale is 2**23 codes [DS 8.3.8]; as nT,
+# 8.4 mT, a hundred times any fluxgate's range
+OFFSET_LIMIT = 8388608.0
+# sigma_max / sigma_min of M in nT per nT (columns divided by meta["scale"] when the record
+# takes codes). A fluxgate's axes differ by a few % in gain and < 1 deg in angle (cond < 1.1);
+# the cheap MEMS sensors in ../shared/data/real with their soft iron reach 2.2; an axis
+# skewed by 45 deg is 2.4, by 89 deg 115.
+COND_LIMIT = 3.0
+SYMMETRY_TOL = 1e-5   # M is symmetric by construction (every fit here); relative to max |m_ij|
+TEMP_RANGE_C = (-60.0, 130.0)   # the ADS1292's die: -40..85 C operating [DS 6.3], with margin
+_TEXT_MAX = 256
+# known fields and their types: a wrong type is refused, not carried into the survey
+_META_NUMBERS = ("temperature_c", "time", "uptime_ms", "rate", "n")
+_META_TEXT = ("firmware", "source", "units", "method", "time_iso")
+_DIAG_NUMBERS = ("n", "rms", "observability", "predicted_error", "iterations", "radius", "rejected")
 
 
 def _number(value, what):
@@ -104,11 +128,12 @@ class Calibration:
 
     @classmethod
     def from_dict(cls, d):
+        """The record d (a JSON object) as a Calibration, or ValueError naming its first problem."""
         if not isinstance(d, dict):
             raise ValueError("calibration must be a JSON object")
         version = d.get("version", FORMAT_VERSION)
         if version != FORMAT_VERSION:
-            raise ValueError("unsupported calibration version %r" % (version,))
+            raise ValueError("unsupported calibration version %r" % (_short(version),))
         for key in ("matrix", "offset", "field"):
             if key not in d:
                 raise ValueError("calibration has no %r" % key)
@@ -116,7 +141,102 @@ class Calibration:
         meta = d.get("meta") or {}
         if not isinstance(diagnostics, dict) or not isinstance(meta, dict):
             raise ValueError("diagnostics and meta must be JSON objects")
-        return cls(d["matrix"], d["offset"], d["field"], diagnostics, meta)
+        _check_fields(meta, "meta", _META_NUMBERS, _META_TEXT)
+        _check_fields(diagnostics, "diagnostics", _DIAG_NUMBERS, ())
+        cal = cls(d["matrix"], d["offset"], d["field"], diagnostics, meta)
+        problem = plausibility_problem(cal)
+        if problem:
+            raise ValueError(problem)
+        return cal
 
     def __repr__(self):
         return "Calibration(field=%.3f, offset=%r)" % (self.field, self.offset)
+
+
+def _short(v):
+    """A value for an error message, at most 40 characters of it."""
+    t = repr(v)
+    return t if len(t) <= 40 else t[:37] + "..."
+
+
+def _scalar(v):
+    """A JSON scalar a record may carry in an unknown field: a finite number, text, bool or null."""
+    if v is None or isinstance(v, bool):
+        return True
+    if isinstance(v, (int, float)):
+        return -1e300 < v < 1e300   # finite (a 400-digit integer is not a measurement either)
+    return isinstance(v, str) and len(v) <= _TEXT_MAX
+
+
+def _check_fields(d, what, numbers, texts):
+    for k in d:
+        v = d[k]
+        name = "%s.%s" % (what, _short(k)[1:-1] if isinstance(k, str) else _short(k))
+        if k in numbers:
+            if v is not None:
+                _number(v, name)
+        elif k in texts:
+            if not (isinstance(v, str) and len(v) <= _TEXT_MAX):
+                raise ValueError("%s must be text of at most %d characters" % (name, _TEXT_MAX))
+        elif k == "scale":
+            s = _vector(v, name)
+            if not (s[0] > 0 and s[1] > 0 and s[2] > 0):
+                raise ValueError("%s must be 3 positive numbers (nT per unit)" % name)
+        elif isinstance(v, list):
+            if len(v) > 8 or not all(_scalar(e) for e in v):
+                raise ValueError("%s: a list of at most 8 numbers or short texts expected" % name)
+        elif not _scalar(v):
+            raise ValueError("%s: a number, short text, true/false or null expected" % name)
+    t = d.get("temperature_c") if what == "meta" else None
+    if t is not None and not TEMP_RANGE_C[0] <= t <= TEMP_RANGE_C[1]:
+        raise ValueError("meta.temperature_c %r outside %r..%r C" % (t, TEMP_RANGE_C[0], TEMP_RANGE_C[1]))
+
+
+def _sym_eigenvalues(a):
+    """Eigenvalues of a symmetric 3x3 matrix, closed form (Smith 1961); ascending."""
+    p1 = a[0][1] ** 2 + a[0][2] ** 2 + a[1][2] ** 2
+    q = (a[0][0] + a[1][1] + a[2][2]) / 3.0
+    p2 = (a[0][0] - q) ** 2 + (a[1][1] - q) ** 2 + (a[2][2] - q) ** 2 + 2.0 * p1
+    p = math.sqrt(p2 / 6.0)
+    if p == 0.0:
+        return [q, q, q]
+    b = [[(a[i][j] - (q if i == j else 0.0)) / p for j in range(3)] for i in range(3)]
+    r = (b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1]) - b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0])
+         + b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0])) / 2.0
+    phi = math.acos(max(-1.0, min(1.0, r))) / 3.0
+    e1 = q + 2.0 * p * math.cos(phi)
+    e3 = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
+    return [e3, 3.0 * q - e1 - e3, e1]
+
+
+def plausibility_problem(cal):
+    """Why cal cannot be a magnetometer's (one line), or None: the bounds a record must meet.
+
+    The field one the Earth has; offsets within the ADC's range; M symmetric positive
+    definite (no axis reversed or swapped) with a condition number a sensor can have.
+    """
+    lo, hi = FIELD_RANGE_NT
+    if not lo <= cal.field <= hi:
+        return "field %.6g nT is implausible: the Earth's is 22,000-67,000 nT, fluxcal accepts 1,000-100,000 nT" % (
+            cal.field,)
+    for i in range(3):
+        if abs(cal.offset[i]) > OFFSET_LIMIT:
+            return "offset[%d] %.6g beyond the ADC's range (+-%d codes)" % (i, cal.offset[i], OFFSET_LIMIT)
+    m = cal.matrix
+    big = max(abs(v) for row in m for v in row)
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        if abs(m[i][j] - m[j][i]) > SYMMETRY_TOL * big:
+            return "matrix is not symmetric (m[%d][%d] %.6g, m[%d][%d] %.6g)" % (i, j, m[i][j], j, i, m[j][i])
+    k = cal.meta.get("scale") or (1.0, 1.0, 1.0)
+    # in nT per nT: h = k n, so M (n - b) = M K^-1 (h - k b)
+    a = [[m[i][j] / k[j] for j in range(3)] for i in range(3)]
+    s = [[(a[i][j] + a[j][i]) / 2.0 for j in range(3)] for i in range(3)]
+    ev = _sym_eigenvalues(s)
+    if not ev[0] > 0:
+        return "matrix is not positive definite (smallest eigenvalue %.3g): an axis reversed or swapped" % ev[0]
+    ata = [[a[0][i] * a[0][j] + a[1][i] * a[1][j] + a[2][i] * a[2][j] for j in range(3)] for i in range(3)]
+    sv = _sym_eigenvalues(ata)   # squared singular values
+    cond = math.sqrt(sv[2] / sv[0]) if sv[0] > 0 else float("inf")
+    if cond > COND_LIMIT:
+        return "matrix condition number %.3g > %g: gains or axis angles no magnetometer has" % (cond, COND_LIMIT)
+    return None

@@ -123,8 +123,8 @@ def test_push_cal_round_trip_and_the_firmware_s_refusal(handheld, tmp_path):
     for cal in (a, b):
         assert np.allclose(cal.matrix, expect.matrix, rtol=1e-12) and np.allclose(cal.offset, expect.offset, rtol=1e-12)
         assert cal.field == 47200.0 and cal.meta["units"] == "codes"
-    # plausible here, refused by the firmware's own checks: a gain 10x the front end's
-    (tmp_path / "ten.json").write_text(json.dumps(dict(fitted, matrix=[[10, 0, 0], [0, 1, 0], [0, 0, 1]])))
+    # plausible here, refused by the firmware's own checks: gains 10x the front end's
+    (tmp_path / "ten.json").write_text(json.dumps(dict(fitted, matrix=[[10, 0, 0], [0, 10, 0], [0, 0, 10]])))
     fails_in_one_line(fluxcal("push-cal", tmp_path / "ten.json", "--port", handheld.port), "bad_scale")
     ok(fluxcal("pull-cal", "-o", tmp_path / "c.json", "--port", handheld.port))
     assert np.allclose(load_calibration(tmp_path / "c.json").matrix, a.matrix)   # the previous one stays

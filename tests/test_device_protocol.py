@@ -112,8 +112,9 @@ def test_set_cal_validated_then_get_cal(client):
     assert client.ask("set-cal " + json.dumps(good))["ok"]
     got = client.ask("get-cal")["cal"]
     assert got["matrix"][1][1] == pytest.approx(k) and got["meta"]["source"] == "set-cal"
-    # a gain 10x off the configured front end is refused; the good one stays
-    bad = dict(good, matrix=[[10 * k, 0, 0], [0, k, 0], [0, 0, k]])
+    # gains 10x off the configured front end are refused (a plausible matrix, the wrong scale);
+    # the good one stays
+    bad = dict(good, matrix=[[10 * k, 0, 0], [0, 10 * k, 0], [0, 0, 10 * k]])
     r = client.ask("set-cal " + json.dumps(bad))
     assert r["error"] == "bad_scale"
     assert client.ask("get-cal")["cal"]["matrix"][0][0] == pytest.approx(k)

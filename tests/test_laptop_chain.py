@@ -88,7 +88,11 @@ def test_deploy_calibrate_monitor_capture_pull_push_from_the_laptop(tmp_path):
     offline = load_calibration(tmp_path / "offline.json")
     bound = spin_ptp_bound(Scenario(rate=DEFAULTS["rate"]), 100)
     diff = magnitudes(device, h) - magnitudes(offline, h)
-    assert len(h) > 500 and np.sqrt(np.mean(diff ** 2)) < bound, (len(h), np.sqrt(np.mean(diff ** 2)))
+    # the shapes agree within the bound (what varies with orientation); the levels (each fit's
+    # radius, from different data: the device's gated calibration, 12 s of ungated hand turns)
+    # within a few times it
+    assert len(h) > 500 and np.std(diff) < bound and abs(np.mean(diff)) < 4 * bound, (
+        len(h), np.std(diff), np.mean(diff), bound)
     # push-cal round trip: what the device holds is what was pushed
     a, b = (json.loads((tmp_path / n).read_text()) for n in ("device.json", "again.json"))
     assert np.allclose(a["matrix"], b["matrix"], rtol=1e-6) and np.allclose(a["offset"], b["offset"], rtol=1e-6)

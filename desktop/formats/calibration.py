@@ -2,10 +2,8 @@
 
 import json
 
-import numpy as np
-
 from desktop.formats import FormatError
-from shared.calibration import Calibration
+from shared.calibration import Calibration, plausibility_problem as shared_plausibility
 
 
 def load_calibration(path):
@@ -36,7 +34,6 @@ def save_calibration(path, cal):
 # A device's calibration takes ADC codes (docs/protocol.md): meta["units"] says so on the
 # files pull-cal writes. A calibration without it takes nT, as `fluxcal fit` writes them.
 CODE_UNITS = "codes"
-FIELD_RANGE_NT = (1000.0, 100000.0)   # the Earth's field is 22,000-67,000 nT
 
 
 def takes_codes(cal):
@@ -66,18 +63,8 @@ def to_nT_units(cal, nT_per_code):
 def plausibility_problem(cal):
     """Why a calibration cannot be a sensor's (one line), or None.
 
-    Calibration.from_dict has refused non-finite values and a matrix whose
-    determinant is not positive; here: the matrix must be positive definite
-    (x.M x > 0 for every x: no axis reversed or swapped) and the field one the
-    Earth has.
+    The firmware's own bounds (shared/calibration.py): the same code for the wire and
+    the file. from_dict has applied them to every record read; a Calibration built here
+    (a fit) is checked before it is written or sent.
     """
-    m = np.asarray(cal.matrix, dtype=float)
-    low = float(np.linalg.eigvalsh((m + m.T) / 2).min())
-    if not low > 0:
-        return "matrix is not positive definite (smallest eigenvalue of its symmetric part %.3g): " \
-               "an axis reversed or swapped" % low
-    lo, hi = FIELD_RANGE_NT
-    if not lo <= cal.field <= hi:
-        return "field %.6g nT is implausible: the Earth's is 22,000-67,000 nT, fluxcal accepts %s-%s nT" % (
-            cal.field, format(int(lo), ","), format(int(hi), ","))
-    return None
+    return shared_plausibility(cal)

@@ -9,7 +9,8 @@ numbers (the paper does not say how it scaled them). The paper's dropout of
 2 neurons every 30 epochs is left out: on a purely linear 3-node network it
 only perturbs the training, it cannot change the map it converges to.
 
-The trained network is an affine map, returned as (matrix, offset, field).
+The trained network is an affine map, returned as (matrix, offset, field), its
+matrix the symmetric factor of the network's (the same magnitudes).
 """
 
 import numpy as np
@@ -67,4 +68,9 @@ def fit_paper_nn(h, field=None, epochs=60, batch=256, learning_rate=3e-3, seed=0
     # y = w x + c on scaled data: h_c = R (w h / R + c) = w (h - b), b = -R w^-1 c
     offset = -radius * np.linalg.solve(w, c)
     out_field = radius if field is None else float(field)
-    return w * (out_field / radius) * 1.0, offset, out_field
+    # The network's map may include a rotation (w = R P, polar decomposition). |w (h - b)| is
+    # |P (h - b)| for any rotation R: the symmetric factor P = (w^T w)^(1/2) is the same scalar
+    # calibration, in the symmetric positive definite form every record has (shared/calibration.py).
+    u, sv, vt = np.linalg.svd(w)
+    p = (vt.T * sv) @ vt
+    return p * (out_field / radius), offset, out_field
