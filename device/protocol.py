@@ -95,17 +95,20 @@ class Protocol:
             self._buf.append(b)
 
     def handle(self, raw):
-        try:
-            line = raw.decode().strip()
-        except UnicodeError:
-            self.error("", "bad_encoding", "request is not UTF-8 text")
+        # Requests are ASCII (docs/protocol.md; JSON escapes anything else). Checked byte by
+        # byte: MicroPython's decode() passes overlong UTF-8 and surrogates, which would
+        # then be echoed raw into a reply that is no longer UTF-8.
+        raw = raw.strip()   # ASCII white space, \r of \r\n included
+        if not raw:
             return
-        if not line:
-            return
-        for ch in line:
-            if ord(ch) < 32 and ch != "\t":
+        for b in raw:
+            if b > 126:
+                self.error("", "bad_encoding", "request is not ASCII text")
+                return
+            if b < 32 and b != 9:
                 self.error("", "bad_request", "control character in request")
                 return
+        line = raw.decode()
         sp = line.find(" ")
         cmd = line if sp < 0 else line[:sp]
         args = "" if sp < 0 else line[sp + 1:].strip()
