@@ -214,3 +214,23 @@ def test_clipping_is_named_with_its_own_reason(tmp_path):
         assert s["clipped"] > 100 and s["calibrated"] is False
     finally:
         dev.close()
+
+
+@pytest.mark.parametrize("motion, world, reasons", [
+    ("stationary", {}, ("degenerate_coverage", "poor_observability")),
+    # the field itself moves 300 nT/min (a vehicle, a storm) while the hand turns: the ellipsoid
+    # cannot fit the samples; 60 nT/min is absorbed (the fit's residual stays under 5 nT)
+    ("hand", {"drift": 300.0}, ("rms_too_high",)),
+], ids=["stationary", "field-drift"])
+def test_calibration_input_that_cannot_calibrate_is_named_and_the_previous_kept(tmp_path, motion, world, reasons):
+    """Rows 'stationary' and 'drift' of calibration input: refused with a reason, nothing replaced."""
+    w, dev = boot(tmp_path, "cpython", seconds=45.0, motion=motion, seed=4, **world)
+    try:
+        assert ask(w, dev, "set-cal " + json.dumps(GOOD))["ok"]
+        assert ask(w, dev, "start-cal")["ok"]
+        dev.run_until(40.0)
+        r = ask(w, dev, "finish-cal")["result"]
+        assert r["state"] == "failed" and r["reason"] in reasons and r["msg"], r
+        assert ask(w, dev, "get-cal")["cal"]["meta"]["source"] == "set-cal"
+    finally:
+        dev.close()

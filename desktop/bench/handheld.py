@@ -174,6 +174,17 @@ def _step_latency(hh, ser, nT=100.0):
     return None
 
 
+def _measured(row, runtime, what, fn, *args):
+    """fn(*args), or None with the failure kept for the table's notes (a loaded machine can
+    make the virtual handheld fall behind real time: emulate then stops, as it should)."""
+    try:
+        return fn(*args)
+    except (RuntimeError, subprocess.TimeoutExpired) as exc:
+        row["failed"].append((what, str(exc).strip().splitlines()[-1][:200]))
+        print("%s %s: %s" % (runtime, what, exc), file=sys.stderr)
+        return None
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m desktop.bench.handheld", description=__doc__.splitlines()[0])
     p.add_argument("--repeats", type=int, default=3)
@@ -184,17 +195,17 @@ def main(argv=None):
         if name != "cpython" and interpreter(name) is None:
             continue
         r = rows[name] = {"first": [], "again": [], "mpy": [], "source": [], "calibrate": [], "cap_cal": [],
-                          "cap_survey": [], "latency": []}
+                          "cap_survey": [], "latency": [], "failed": []}
         for _ in range(args.repeats):
-            first, again = startup(name)
+            first, again = _measured(r, name, "start-up", startup, name) or (None, None)
             r["first"].append(first)
             r["again"].append(again)
             if name != "cpython" and name != "circuitpython":
-                r["mpy"].append(deploy(name, "--mpy"))
-                r["source"].append(deploy(name, "--source"))
-            r["calibrate"].append(calibrate(name))
+                r["mpy"].append(_measured(r, name, "deploy --mpy", deploy, name, "--mpy"))
+                r["source"].append(_measured(r, name, "deploy --source", deploy, name, "--source"))
+            r["calibrate"].append(_measured(r, name, "calibrate", calibrate, name))
             if name != "cpython":
-                cal, survey, latency = capacity_and_latency(name)
+                cal, survey, latency = _measured(r, name, "capacity", capacity_and_latency, name) or (None,) * 3
                 r["cap_cal"].append(cal)
                 r["cap_survey"].append(survey)
                 r["latency"].append(latency)
@@ -213,6 +224,9 @@ def main(argv=None):
             name, cell(r["first"], "%.1f", " s"), cell(r["again"], "%.1f", " s"), cell(r["mpy"], "%.1f", " s"), cell(r["source"], "%.1f", " s"),
             cell(r["calibrate"], "%.1f", " s"), cell(r["cap_cal"], "%.1f", "x"), cell(r["cap_survey"], "%.1f", "x"),
             cell(r["latency"], "%.2f", " s")))
+    for name, r in rows.items():
+        for what, why in r["failed"]:
+            print("\n%s, %s failed: %s" % (name, what, why))
     print("\n(command: python -m desktop.bench.handheld --repeats %d; %.0f s)" % (args.repeats, time.time() - t0))
     return 0
 
