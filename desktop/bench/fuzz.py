@@ -160,7 +160,9 @@ def _mutate(r, rec):
     value = r.pick([json_value, json_value, lambda r: r.pick(SPECIAL_NUMBERS), lambda r: r.pick(WRONG_TYPES)])(r)
     if where == "matrix":
         i, j = r.int(0, 2), r.int(0, 2)
-        rec["matrix"] = r.pick([skewed_matrix(r), value, [row[:] for row in rec["matrix"]]])
+        m = rec.get("matrix")
+        same = [list(row) if isinstance(row, list) else row for row in m] if isinstance(m, list) else m
+        rec["matrix"] = r.pick([skewed_matrix(r), value, same])
         if isinstance(rec["matrix"], list) and len(rec["matrix"]) == 3 and isinstance(rec["matrix"][i], list):
             rec["matrix"][i] = list(rec["matrix"][i])
             if r.chance(0.5):
@@ -352,7 +354,7 @@ class Harness:
         self.case_timeout_s = case_timeout_s
         self.boots = 0
         self.dev = self.ser = self.client = None
-        self.tally = collections.Counter()
+        self.tally = collections.Counter({"failed cases": 0, "died": 0, "hung": 0})
         self.failures = []     # (input bytes, [problems])
         self._start()
 
@@ -572,6 +574,17 @@ def _config_key(line):
     return None
 
 
+def failure_kinds(failures):
+    """[(kind, [(input, problems), ...])], most frequent first; a kind is a problem's
+    text before its first colon, numbers left out."""
+    groups = collections.OrderedDict()
+    for data, problems in failures:
+        for p in problems:
+            kind = "".join("N" if ch.isdigit() else ch for ch in p.split(":")[0].split(";")[0]).strip()
+            groups.setdefault(kind, []).append((data, problems))
+    return sorted(groups.items(), key=lambda kv: -len(kv[1]))
+
+
 def run(cases, seed=1, kind="micropython", flood_max=200, progress=True, root=None):
     """Run `cases` random cases; (tally Counter, failures [(input, problems)])."""
     draw = RandomDraw(seed)
@@ -606,13 +619,12 @@ def main(argv=None):
     width = max(len(k) for k in tally)
     for k in sorted(tally, key=lambda k: (not k.startswith(("cases", "lines", "failed", "died", "hung")), k)):
         print("  %-*s %8d" % (width, k, tally[k]))
-    seen = set()
-    for data, problems in failures:
-        key = tuple(p[:60] for p in problems)
-        if key in seen:
-            continue
-        seen.add(key)
-        print("FAIL %r\n     %s" % (data if len(data) < 600 else data[:600] + b"...", "\n     ".join(problems)))
+    for kind, cases in failure_kinds(failures):
+        print("FAIL x%d: %s" % (len(cases), kind))
+        for data, problems in cases[:2]:
+            print("  input %r" % (data if len(data) < 300 else data[:300] + b"...",))
+            for p in problems:
+                print("    " + p[:300])
     if a.save:
         with open(a.save, "w") as f:
             json.dump([{"input": d.decode("latin-1"), "problems": p} for d, p in failures], f, indent=1)
