@@ -173,3 +173,21 @@ def test_implausible_set_cal_is_refused_and_the_good_one_kept(harness, line):
     assert r is not None and r["ok"] is False and r["error"] not in ("internal_error",), r
     assert harness.ask("get-cal")["cal"] == before
     run_case(harness, b"status")
+
+
+def test_config_changes_do_not_trip_an_adc_fault(harness):
+    """Found by the fuzzing: a `config set` of any key zeroes the acquisition's counters
+    (apply_config -> _setup_pipeline -> set_decimation -> reset) while health.py keeps the
+    frame count of its last check; a check that finds the same count again (both counted
+    from a reset at the same distance) sees no conversion, and adc_no_drdy ('no conversion
+    for 265 ms') stops the survey of a healthy ADC. Config changes at uneven intervals, as
+    a user or a script sends them: no fault event, the survey goes on."""
+    c = harness.client
+    start = len(c.seen)
+    for k in range(60):
+        r = harness.ask("config set min_coverage 0.5")
+        assert r is not None and r["ok"], r
+        c.step(0.02 * (1 + k % 13))
+    faults = [e for e in c.seen[start:] if e.get("ev") == "fault"]
+    assert faults == [], faults
+    assert harness.ask("status")["state"] == "survey"
