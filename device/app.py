@@ -140,7 +140,10 @@ class App:
 
     def _setup_pipeline(self):
         c = self.cfg
-        self.acq.set_decimation(c["decim"], c["window"])
+        if (c["decim"], c["window"]) != (self.acq.decim, self.acq.window):
+            self.acq.set_decimation(c["decim"], c["window"])   # counters from zero: a new boxcar
+        if self.health is not None:
+            self.health.rate_changed(c["rate"], self.board.ticks_ms())
         self.sample_hz = c["rate"] / c["decim"]
         self._house_idles = max(1, c["rate"] * _HOUSE_MS // 1000)
         # twice what a pass brings: a pass that ran late catches up in the next
