@@ -168,16 +168,22 @@ class MicroPythonDevice(_ChildDevice):
                 % (lib, flash_dir(root), bool(lock_heap_in_isr), bool(polled), costs_us(costs)))
         self.proc = subprocess.Popen([exe, "-X", "heapsize=" + heap, "-c", boot], stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, stderr=self.errfile, bufsize=0)
+        self._fd = self.proc.stdout.fileno()
+        self._ahead = b""       # bytes of the firmware's next messages, read with an earlier one
         self.link = HostLink(world, self._read, self.proc.stdin.write)
 
     def _read(self, n):
-        buf = bytearray()
+        """Exactly n bytes of the firmware's messages. One read takes whatever the pipe holds
+        (the firmware writes messages without a reply back to back), the rest serves the
+        next calls: a system call per wait of the firmware, not per message."""
+        buf = self._ahead
         while len(buf) < n:
-            chunk = self.proc.stdout.read(n - len(buf))
+            chunk = os.read(self._fd, 65536)
             if not chunk:
                 self._died()
             buf += chunk
-        return bytes(buf)
+        self._ahead = buf[n:]
+        return buf[:n]
 
     def _died(self):
         self.proc.wait(timeout=5)
