@@ -47,6 +47,9 @@ class Board(hal.Board):
         self._on_gap = None
         self._last = -1        # t_us of the last serviced DRDY (polled), -1: none yet
         self._led = -1
+        self._t_prev = 0       # ticks_ms: the link's t_us at the last call, the us left over, the ms clock
+        self._us = 0
+        self._ms = 0
         # Under MicroPython: run the DRDY handler with the heap locked, which is
         # what a hard IRQ enforces; an allocation there raises MemoryError.
         self._lock = lock_heap_in_isr and _heap_lock is not None
@@ -89,7 +92,18 @@ class Board(hal.Board):
 
     # time: simulated, advanced by the host only
     def ticks_ms(self):
-        return (self.link.t_us // 1000) & T_MASK
+        # The link's clock is in us and wraps at 2**30 us (17.9 min); a ms clock taken from it
+        # as (t_us // 1000) would wrap there too, not at 2**30 ms as ticks_diff assumes (a
+        # difference across it off by 17.9 min: found by the long run). So the ms clock
+        # counts the us that passed since the last call (the main loop calls it 50 times a
+        # second, far inside the wrap).
+        t = self.link.t_us
+        us = self._us + ((t - self._t_prev) & T_MASK)
+        self._t_prev = t
+        ms = us // 1000
+        self._us = us - ms * 1000
+        self._ms = (self._ms + ms) & T_MASK
+        return self._ms
 
     def ticks_diff(self, a, b):
         return ((a - b + _TICKS_HALF) & T_MASK) - _TICKS_HALF

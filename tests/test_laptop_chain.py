@@ -111,9 +111,13 @@ def test_the_emulator_killed_mid_stream_is_one_line():
         assert port.startswith("/dev/"), port + emu.stderr.read()
         mon = subprocess.Popen([FLUXCAL, "monitor", "--seconds", "60", "--port", port], cwd=ROOT,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        time.sleep(3.0)
+        first = ""
+        deadline = time.monotonic() + 50
+        while "|B|" not in first and time.monotonic() < deadline and mon.poll() is None:
+            first = mon.stdout.readline()    # streaming: wait for the first |B| line (a loaded machine)
         emu.kill()
         out, err = mon.communicate(timeout=30)
+        out = first + out
     finally:
         if emu.poll() is None:
             emu.kill()

@@ -234,3 +234,25 @@ def test_calibration_input_that_cannot_calibrate_is_named_and_the_previous_kept(
         assert ask(w, dev, "get-cal")["cal"]["meta"]["source"] == "set-cal"
     finally:
         dev.close()
+
+
+def test_the_simulated_boards_ms_clock_runs_through_the_links_us_wrap():
+    """The sim HAL's ticks_ms came round with the link's us clock (2**30 us, 17.9 min), not at
+    2**30 ms as its ticks_diff assumes: across that point every deadline (health checks,
+    progress, the boot guard) stalled for 17.9 simulated minutes (found by the long run)."""
+    hal_sim = import_device("hal_sim")
+    mask = import_device("sim_wire").T_MASK
+
+    class Link:                      # the link's clock only: what ticks_ms reads
+        t_us = mask - 5_000_000      # 5 s before the us wrap
+
+        def idle(self):
+            pass
+
+    link = Link()
+    board = hal_sim.Board(link, "")
+    t0 = board.ticks_ms()
+    for _ in range(100):             # 10 s in 0.1 s steps, across the wrap
+        link.t_us = (link.t_us + 100_000) & mask
+        t = board.ticks_ms()
+    assert board.ticks_diff(t, t0) == 10_000
