@@ -21,6 +21,7 @@ import sys
 import time
 
 import numpy as np
+import pytest
 
 from desktop.formats.calibration import load_calibration, to_nT_units
 from desktop.formats.capture import field_nT, load_capture
@@ -134,3 +135,29 @@ def test_emulate_stops_loudly_when_the_firmware_falls_behind():
                        stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=60)
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 1 and len(lines) == 1 and "behind" in lines[0] and "500x" in lines[0], r.stderr
+
+
+@pytest.mark.parametrize("runtime", ["micropython", "micropython-reprc"])
+def test_a_terminated_emulator_takes_its_board_with_it(runtime):
+    """SIGTERM (what a bench, a supervisor or a closed terminal sends) ends `fluxcal emulate`
+    through its clean-up: the board's interpreter goes too. It kept spinning at ~15 % CPU per
+    orphan on the 32-bit and CircuitPython builds, found after a bench left thirteen behind."""
+    if runtime != "micropython":
+        need(runtime)
+    emu = subprocess.Popen([FLUXCAL, "emulate", "--runtime", runtime, "--bare"], cwd=ROOT,
+                           stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        while not emu.stdout.readline().startswith("ready"):
+            assert emu.poll() is None, emu.stderr.read()
+        children = subprocess.run(["pgrep", "-P", str(emu.pid)], capture_output=True, text=True).stdout.split()
+        assert children, "no board process under the emulator"
+        emu.terminate()
+        emu.wait(timeout=30)
+        time.sleep(0.5)
+        alive = [pid for pid in children if os.path.exists("/proc/%s" % pid)
+                 and "zombie" not in open("/proc/%s/status" % pid).read().lower()]
+        assert alive == [], "board processes left running: %s" % alive
+    finally:
+        if emu.poll() is None:
+            emu.kill()
+            emu.wait()

@@ -188,10 +188,11 @@ def _measured(row, runtime, what, fn, *args):
 def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m desktop.bench.handheld", description=__doc__.splitlines()[0])
     p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--runtime", action="append", choices=ALL, help="only these runtimes (repeatable; default all)")
     args = p.parse_args(argv)
     t0 = time.time()
     rows = {}
-    for name in ALL:
+    for name in args.runtime or ALL:
         if name != "cpython" and interpreter(name) is None:
             continue
         r = rows[name] = {"first": [], "again": [], "mpy": [], "source": [], "calibrate": [], "cap_cal": [],

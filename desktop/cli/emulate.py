@@ -76,6 +76,15 @@ def run(args):
         except FileNotFoundError as exc:
             raise CommandError(str(exc))
     keys = _Keys(hh, done)
+    # A terminated emulator takes its board down with it: SIGTERM / SIGHUP unwind through the
+    # finally below (by default they end Python at once, and the board's interpreter, a child
+    # process reading a pty nobody writes to any more, kept spinning).
+    import signal
+
+    def _terminated(signum, _frame):
+        raise SystemExit(128 + signum)
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, _terminated)
     try:
         hh.start()
         print("fluxcal emulate: virtual handheld (%s, %s) on %s" % (args.runtime, args.sensor, hh.port), flush=True)
