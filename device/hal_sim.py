@@ -47,7 +47,7 @@ class Board(hal.Board):
         self._on_gap = None
         self._last = -1        # t_us of the last serviced DRDY (polled), -1: none yet
         self._led = -1
-        self._t_prev = 0       # ticks_ms: the link's t_us at the last call, the us left over, the ms clock
+        self._t_prev = None    # ticks_ms: the link's t_us at the last call, the us left over, the ms clock
         self._us = 0
         self._ms = 0
         # Under MicroPython: run the DRDY handler with the heap locked, which is
@@ -97,12 +97,20 @@ class Board(hal.Board):
         # difference across it off by 17.9 min: found by the long run). So the ms clock
         # counts the us that passed since the last call (the main loop calls it 50 times a
         # second, far inside the wrap).
+        # The link's t_us may step back a little (the HAL advances it locally in sleep_us, the
+        # World's next reply sets its own): the clock holds until it passes its last value.
         t = self.link.t_us
-        us = self._us + ((t - self._t_prev) & T_MASK)
-        self._t_prev = t
-        ms = us // 1000
-        self._us = us - ms * 1000
-        self._ms = (self._ms + ms) & T_MASK
+        if self._t_prev is None:   # the first reading: the clock starts where the link's is
+            self._t_prev = t
+            self._ms = t // 1000
+            self._us = t - self._ms * 1000
+        d = ((t - self._t_prev + _TICKS_HALF) & T_MASK) - _TICKS_HALF
+        if d > 0:
+            self._t_prev = t
+            us = self._us + d
+            ms = us // 1000
+            self._us = us - ms * 1000
+            self._ms = (self._ms + ms) & T_MASK
         return self._ms
 
     def ticks_diff(self, a, b):
