@@ -74,12 +74,13 @@ def test_calibrate_auto_then_pull_cal_agrees_with_a_numpy_fit(tmp_path):
 
     with LiveHandheld(tmp_path / "hh", motion="hand", seconds=60, seed=7) as hh:
         t0 = time.monotonic()
-        out = ok(fluxcal("calibrate", "--auto", "--port", hh.port))
+        out = ok(fluxcal("calibrate", "--auto", "--verify", 2, "--port", hh.port))
         took = time.monotonic() - t0
+        verified = [line for line in out.splitlines() if line.startswith("verification:")]
         assert "coverage" in out and "READY" in out                   # progress lines, piped
         assert "+X" in out and "-Z" in out                             # the coverage map
         assert "calibration done: field" in out and "saved, in force" in out and "replaced: no calibration" in out
-        assert took < 25, "auto-finish took %.0f s of rotation" % took
+        assert took < 25 + 2, "auto-finish took %.0f s of rotation" % took
         ok(fluxcal("pull-cal", "-o", tmp_path / "device.json", "--port", hh.port))
         ok(fluxcal("capture", "--seconds", 5, "-o", tmp_path / "after.npz", "--port", hh.port))
         out = ok(fluxcal("monitor", "--seconds", 3, "--port", hh.port))
@@ -97,6 +98,9 @@ def test_calibrate_auto_then_pull_cal_agrees_with_a_numpy_fit(tmp_path):
     # monitor: the calibrated |B| while the hand keeps turning
     ptp = float(out.strip().splitlines()[-1].split("peak-to-peak ")[1].split(" nT")[0])
     assert ptp < 4 * bound, out
+    # calibrate --verify 2: the README's option, 2 s of corrected |B| right after the result
+    assert len(verified) == 1, verified
+    assert float(verified[0].split("peak-to-peak ")[1].split(" nT")[0]) < 4 * bound, verified
 
 
 @pytest.mark.parametrize("keys, words", [("c\n", ("calibration cancelled", "previous calibration stays")),
