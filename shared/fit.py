@@ -9,6 +9,7 @@
         cal = fit.solve(field=None)       # -> shared.calibration.Calibration
     except FitError as exc:
         print(exc.reason)                 # too_few_samples, degenerate_coverage, ...
+    cal = fit.solve(prior=previous)       # quick re-calibration (shared.quick)
 
 The accumulator holds the 35 power sums x^i y^j z^k (i+j+k <= 4) as Python
 integers, nothing else (shared.moments). Integers keep the sums exact, so the
@@ -158,12 +159,14 @@ class EllipsoidFit:
             s[k] += o[k]
 
     def solve(self, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175),
-              min_samples=12, max_iter=60, max_error=None):
+              min_samples=12, max_iter=60, max_error=None, quick=True):
         """Fit h_c = M (h - b) with |h_c| constant; return a Calibration.
 
         field: the known local field in the output unit (nT), or None to fit it.
-        prior: a previous Calibration on the same input unit; ties shape, gain
-            and offsets to it (quick re-calibration with little rotation).
+        prior: a previous Calibration on the same input unit: a quick
+            re-calibration (shared.quick: its shape, today's offsets and common
+            gain; FitError not_better if it would not improve on the prior).
+        quick: False to fit all nine parameters with the prior as a weak one.
         num: the number type of the float work (float on the device;
             numpy.float32 or a rounding class to emulate narrow floats).
         scale: nominal output unit per input unit, a number or 3 numbers
@@ -180,4 +183,7 @@ class EllipsoidFit:
         too_few_samples, degenerate_coverage, not_ellipsoid, non_finite.
         """
         self._unpack()
+        if prior is not None and quick:
+            from shared import quick as quick_fit
+            return quick_fit.solve(self._s, prior, field, num, scale, shape_sigma, min_samples, max_iter, max_error)
         return solver.solve(self._s, field, prior, num, scale, shape_sigma, min_samples, max_iter, max_error)

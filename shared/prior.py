@@ -67,7 +67,11 @@ class Prior:
 
 
 
-def make_prior(pb, prior, field, num, kr, k_nom, shape_sigma):
+def make_prior(pb, prior, field, num, kr, k_nom, shape_sigma, offset_nt=None, gain=None):
+    """The prior of a fit in pb's frame: the physical one (prior None), or one
+    tying shape, gain (width `gain`, relative) and offsets (`offset_nt`) to a
+    previous calibration; .a_frame and .f_target hold that calibration's
+    quadric and offsets in the frame."""
     if prior is None:
         if shape_sigma is None:
             return None
@@ -84,10 +88,12 @@ def make_prior(pb, prior, field, num, kr, k_nom, shape_sigma):
     ap = [a_raw[k] / (kr[PAIR[k][0]] * kr[PAIR[k][1]]) for k in range(6)]
     t = (ap[0] + ap[1] + ap[2]) / 3.0
     q = [ap[k] / t - (1.0 if k < 3 else 0.0) for k in range(6)]
-    gain = abs(linalg.det3(m)) ** (1.0 / 3.0)  # output unit per input unit
+    det_gain = abs(linalg.det3(m)) ** (1.0 / 3.0)  # output unit per input unit
     f_target = [(prior.offset[i] - pb.centre[i]) / math.ldexp(1.0, pb.e) for i in range(3)]
-    f_sigma = PRIOR_OFFSET_NT / gain / math.ldexp(1.0, pb.e)
-    return Prior(num, kr, q, [PRIOR_SHAPE] * 6, f_target, f_sigma, t, PRIOR_SHAPE)
+    f_sigma = (offset_nt or PRIOR_OFFSET_NT) / det_gain / math.ldexp(1.0, pb.e)
+    pr = Prior(num, kr, q, [PRIOR_SHAPE] * 6, f_target, f_sigma, t, gain or PRIOR_SHAPE)
+    pr.a_frame = a_raw
+    return pr
 
 
 # A previous calibration of the same sensor: how far today's may differ.

@@ -121,10 +121,52 @@ class Problem:
         for i in range(3):
             for k in range(3):
                 h[6 + i][6 + k] = four * (am2[i][0] * am[0][k] + am2[i][1] * am[1][k] + am2[i][2] * am[2][k])
+        return h, self.gradient(ga, t, am), a
+
+    def gradient(self, ga, t, am):
+        """Per-sample gradient g of (1) from the exact (g_A, T) and A (3x3)."""
+        nf = self.nf
+        two = self.num(2.0)
         tv = [self.value(x, -4 * FRAC) / nf for x in t]
         g = [self.value(x, -5 * FRAC) / nf for x in ga]
         for i in range(3):
             g.append(-two * (am[i][0] * tv[0] + am[i][1] * tv[1] + am[i][2] * tv[2]))
-        return h, g, a
+        return g
 
 
+
+    def noise_gradient(self, s, a):
+        """(g, q): half the gradient of the noise's expected share of mean r^2,
+        per unit of noise variance in the frame, and q = mean |A v|^2.
+
+        With v = v0 + n (white, variance s2 per axis), E r^2 = r0^2 + s2 (4
+        |A v|^2 + 2 tr(A) r) + O(s2^2): minimising sum r^2 leans towards
+        smaller |A v|, a bias of -H^-1 s2 g (second order in the noise, and on
+        a small cap, where H is nearly singular, far above the spread:
+        shared.solver._predicted_error adds it).
+        """
+        num = self.num
+        nf = self.nf
+        am = sym(a)
+        m2 = [[self.value(s[_IDX2M[i][j]], -2 * FRAC) / nf for j in range(3)] for i in range(3)]
+        m1 = [self.value(s[_IDX1[i]], -FRAC) / nf for i in range(3)]
+        a_s = [[am[i][0] * m2[0][j] + am[i][1] * m2[1][j] + am[i][2] * m2[2][j] for j in range(3)] for i in range(3)]
+        a2 = [[am[i][0] * am[0][j] + am[i][1] * am[1][j] + am[i][2] * am[2][j] for j in range(3)] for i in range(3)]
+        tr = am[0][0] + am[1][1] + am[2][2]
+        mean_r = num(-1.0)
+        q = num(0.0)
+        for i in range(3):
+            for j in range(3):
+                mean_r = mean_r + am[i][j] * m2[i][j]
+                q = q + a2[i][j] * m2[i][j]
+        g = []
+        for m in range(6):
+            i, j = PAIR[m]
+            c = num(float(W_C[m]))
+            # 2 d tr(A^2 S)/da_m + d (tr(A) mean r)/da_m
+            g.append(num(2.0) * c * (a_s[i][j] + a_s[j][i]) + (mean_r if m < 3 else num(0.0)) + tr * c * m2[i][j])
+        for i in range(3):
+            a2m = a2[i][0] * m1[0] + a2[i][1] * m1[1] + a2[i][2] * m1[2]
+            am1 = am[i][0] * m1[0] + am[i][1] * m1[1] + am[i][2] * m1[2]
+            g.append(num(-4.0) * a2m - num(2.0) * tr * am1)
+        return g, q

@@ -172,24 +172,36 @@ class _State:
         """Exact-where-it-matters comparison of objective (2): self - other > 0."""
         if self.rss <= 0 or other.rss <= 0:
             return self.rss > other.rss
-        # N log(RSS'/RSS) from the exact difference, then the prior's change.
-        # Both sums carry ~230 bits: scaled by the same power of two into the
-        # float's range first, since float(rss) is a silent inf on a
-        # single-precision port and inf/inf a nan that compares False.
-        s = -bit_length(other.rss)
-        mine = to_float(self.rss, s)
-        theirs = to_float(other.rss, s)
-        if not mine > 0.0:
+        change = log_ratio(self.rss, other.rss)
+        if change is None:
             return False   # underflowed: smaller than the other by far more than the prior can weigh
-        rel = to_float(self.rss - other.rss, s) / theirs
-        # log1p near 0, where the exact difference carries the precision; the plain
-        # ratio elsewhere (rounding can put rel at -1 when the two differ by orders)
-        change = _log1p(rel) if -1e-4 < rel < 1e-4 else math.log(mine / theirs)
         return n * change + float(self.prior_sq - other.prior_sq) > 0.0
 
 
-def _system(pb, st):
-    h, g, _ = pb.normal_equations(st.s, st.a_int, st.ga, st.t)
+def log_ratio(mine, theirs):
+    """log(mine / theirs) for two positive exact RSS integers; None if mine underflows.
+
+    Both sums carry ~230 bits: scaled by the same power of two into the
+    float's range first, since float(rss) is a silent inf on a
+    single-precision port and inf/inf a nan that compares False.
+    """
+    s = -bit_length(theirs)
+    a = to_float(mine, s)
+    b = to_float(theirs, s)
+    if not a > 0.0:
+        return None
+    rel = to_float(mine - theirs, s) / b
+    # log1p near 0, where the exact difference carries the precision; the plain
+    # ratio elsewhere (rounding can put rel at -1 when the two differ by orders)
+    return _log1p(rel) if -1e-4 < rel < 1e-4 else math.log(a / b)
+
+def _system(pb, st, gradient_only=False):
+    """Normal matrix (None if gradient_only) and gradient of (2) at st."""
+    if gradient_only:
+        h = None
+        g = pb.gradient(st.ga, st.t, sym(st.a))
+    else:
+        h, g, _ = pb.normal_equations(st.s, st.a_int, st.ga, st.t)
     if st.rho:
         num = pb.num
         lam = pb.value(st.rss, -6 * FRAC) / (pb.nf * pb.nf)  # (RSS/N)/N
@@ -198,14 +210,14 @@ def _system(pb, st):
                 if row[i] == num(0.0):
                     continue
                 g[i] = g[i] + lam * row[i] * r
-                for k in range(9):
-                    h[i][k] = h[i][k] + lam * row[i] * row[k]
+                if h is not None:
+                    for k in range(9):
+                        h[i][k] = h[i][k] + lam * row[i] * row[k]
     return h, g
 
 
-def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175),
-          min_samples=12, max_iter=60, max_error=None, min_observability=1e-6):
-    """See EllipsoidFit.solve; returns a Calibration or raises FitError."""
+def setup(sums, field, num, scale, min_samples):
+    """Checks and the problem in its frame: (pb, k_nom, kr, observability)."""
     n = sums[0]
     if n < min_samples:
         raise FitError(TOO_FEW_SAMPLES, "%d samples, need at least %d" % (n, min_samples))
@@ -222,8 +234,24 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
         raise FitError(NON_FINITE, "sample scatter overflows this number type")
     values, _ = linalg.eigh3(pb.cov, num)
     top = max(values)
-    observability = float(min(values) / top) if top > num(0.0) else 0.0
-    if not top > num(0.0) or (prior is None and observability < min_observability):
+    if not top > num(0.0):
+        raise FitError(DEGENERATE_COVERAGE, "samples span no volume: rotate about more than one axis")
+    return pb, k_nom, kr, float(min(values) / top)
+
+
+def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175),
+          min_samples=12, max_iter=60, max_error=None, min_observability=1e-6):
+    """See EllipsoidFit.solve (all nine parameters; a prior is a weak one); a Calibration or FitError."""
+    return solve_state(sums, field, prior, num, scale, shape_sigma, min_samples, max_iter, max_error,
+                       min_observability)[0]
+
+
+def solve_state(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175),
+                min_samples=12, max_iter=60, max_error=None, min_observability=1e-6):
+    """solve(), also returning the converged state (its exact RSS: shared.quick's shape test)."""
+    pb, k_nom, kr, observability = setup(sums, field, num, scale, min_samples)
+    n = pb.n
+    if prior is None and observability < min_observability:
         raise FitError(DEGENERATE_COVERAGE, "samples span no volume (observability %.2g): rotate about more than one axis" % observability)
 
     pr = make_prior(pb, prior, field, num, kr, k_nom, shape_sigma)
@@ -238,7 +266,28 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
     if best is None:
         raise FitError(NOT_ELLIPSOID, "no ellipsoid through the samples")
 
-    st = best
+    st, h, iterations, rejected = iterate(pb, pr, best, num, max_iter)
+    cal = _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error, h)
+    cal.diagnostics["rejected"] = rejected
+    return cal, st
+
+def _reduce(h, g, basis):
+    """H and g of (2) in the coordinates of basis (columns p_k: dp = sum c_k p_k)."""
+    hp = [[sum(h[i][j] * p[j] for j in range(9)) for i in range(9)] for p in basis]
+    hr = [[sum(p[i] * q[i] for i in range(9)) for q in hp] for p in basis]
+    gr = [sum(p[i] * g[i] for i in range(9)) for p in basis]
+    return hr, gr
+
+
+def iterate(pb, pr, st, num, max_iter, basis=None):
+    """Levenberg-Marquardt on objective (2) from the state st.
+
+    basis(st): the directions the parameters may move in (lists of 9 floats),
+    or None for all nine. Returns (state, normal matrix or None, iterations,
+    rejected steps); the normal matrix is the last one formed, returned where
+    it is valid at the state (see below), in the basis' coordinates.
+    """
+    n = pb.n
     mu = 1e-3
     iterations = 0
     rejected = 0       # Levenberg-Marquardt steps refused for raising the objective
@@ -248,11 +297,15 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
         h, g = _system(pb, st)
         if not _finite_all(g):
             raise FitError(NON_FINITE, "gradient is not finite")
+        dirs = basis(st) if basis else None
+        if dirs:
+            h, g = _reduce(h, g, dirs)
+        k = len(g)
         moved = False
         small = False
         for _ in range(10):
             damped = [row[:] for row in h]
-            for i in range(9):
+            for i in range(k):
                 damped[i][i] = damped[i][i] * num(1.0 + mu)
             try:
                 step = linalg.solve_spd(damped, [-x for x in g], num)
@@ -261,6 +314,8 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
                 continue
             if not _finite_all(step):
                 raise FitError(NON_FINITE, "step is not finite")
+            if dirs:
+                step = [sum(step[c] * dirs[c][i] for c in range(k)) for i in range(9)]
             da = [_quantise(x) for x in step[:6]]
             df = [_quantise(x) for x in step[6:]]
             if not any(da) and not any(df):
@@ -285,12 +340,10 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01,
     # (max_iter <= 2: a device's provisional estimate) whose result is an estimate anyway
     if moved and not small and max_iter > 2:
         h = None
-    cal = _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error, h)
-    cal.diagnostics["rejected"] = rejected
-    return cal
+    return st, h, iterations, rejected
 
 
-def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error, h=None):
+def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error, h=None, dirs=None):
     from shared.calibration import Calibration
 
     one = num(1.0)
@@ -347,7 +400,7 @@ def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_er
 
     rss = pb.value(st.rss, -6 * FRAC) / pb.nf
     rms = num(math.sqrt(float(rss))) / num(2.0) * field_out
-    predicted = _predicted_error(pb, st, rss, am, a_values, a_vectors, num, h) * field_out
+    predicted = _predicted_error(pb, st, rss, am, a_values, a_vectors, num, h, dirs, field is None) * field_out
 
     flat = [v for row in matrix for v in row] + offset + [field_out, rms, predicted]
     if not _finite_all(flat):
@@ -368,7 +421,61 @@ def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_er
     return Calibration([[float(v) for v in row] for row in matrix], [float(v) for v in offset], float(field_out), diagnostics)
 
 
-def _predicted_error(pb, st, rss, am, a_values, a_vectors, num, h=None):
+def _sphere_gradients(a_values, a_vectors, am, num):
+    """For each icosahedron direction u, the gradient g of the relative |h_c| error
+    at v = A^-1/2 u on the fitted ellipsoid: g = (w(v)/2, -A v)."""
+    inv_sqrt = linalg.sym_function(a_values, a_vectors, lambda l: num(1.0) / num(math.sqrt(float(l))))
+    two = num(2.0)
+    out = []
+    for direction in _ICO:
+        v = linalg.matvec(inv_sqrt, [num(c) for c in direction])
+        av = linalg.matvec(am, v)
+        out.append([v[0] * v[0] / two, v[1] * v[1] / two, v[2] * v[2] / two, v[0] * v[1], v[0] * v[2], v[1] * v[2],
+                    -av[0], -av[1], -av[2]])
+    return out
+
+
+def _bias_sq(pb, st, rss, low, a_values, a_vectors, am, num, dirs, centred):
+    """Mean square over the sphere of the relative |h_c| error of the state's offset
+    from the truth that the noise does not average away: its bias, and the
+    remaining step where the iteration stopped short.
+
+    shared.quadric.Problem.noise_gradient: bias = -H^-1 s2 g, with the noise
+    variance s2 from the residuals, rss = 4 s2 mean |A v|^2. Second order:
+    nothing beside the spread on a wide cover, ~8x the spread on a 3 % cap at
+    1 nT (desktop/bench/honesty.py). centred (field unknown): the part common
+    to all directions is a bias of the fitted field, not an error that turns
+    with the instrument, and is left out.
+    """
+    g, q = pb.noise_gradient(st.s, st.a)
+    if not q > num(0.0):
+        return num(0.0)
+    s2 = rss / (num(4.0) * q)
+    # Where the iteration stopped short of the fixed point (a long valley on a
+    # small cap), the state is off by the remaining Gauss-Newton step too:
+    # st - truth = (st - fixed point) + bias = H^-1 (gradient - s2 g).
+    _, grad = _system(pb, st, True)
+    g = [grad[i] - s2 * g[i] for i in range(9)]
+    if dirs:
+        g = [sum(p[i] * g[i] for i in range(9)) for p in dirs]
+    bias = linalg.cho_solve(low, g)
+    errs = []
+    for gd in _sphere_gradients(a_values, a_vectors, am, num):
+        if dirs:
+            gd = [sum(p[i] * gd[i] for i in range(9)) for p in dirs]
+        e = num(0.0)
+        for i in range(len(gd)):
+            e = e + gd[i] * bias[i]
+        errs.append(e)
+    k = num(float(len(errs)))
+    mean = sum(errs) / k if centred else num(0.0)
+    total = num(0.0)
+    for e in errs:
+        total = total + (e - mean) * (e - mean)
+    return total / k
+
+
+def _predicted_error(pb, st, rss, am, a_values, a_vectors, num, h=None, dirs=None, centred=False):
     """RMS over the sphere of the relative |h_c| error, from the posterior covariance.
 
     Cov(p) = (RSS/N) H^-1 with H the per-sample normal matrix of (2). For a true
@@ -376,25 +483,26 @@ def _predicted_error(pb, st, rss, am, a_values, a_vectors, num, h=None):
     relative magnitude error is g.dp with g = (w(v)/2, -A v).
     h: the normal matrix formed at or one tiny step before st (re-forming it
     costs ~2M instructions on a Cortex-M, docs/firmware.md), or None.
+    dirs: the directions the fit was free to move in (a quick re-calibration's
+    gain and offsets), h then in their coordinates; None for all nine.
     """
     if h is None:
-        h, _ = _system(pb, st)
+        h, g = _system(pb, st)
+        if dirs:
+            h, _ = _reduce(h, g, dirs)
     try:
         low = linalg.cholesky(h, num)
     except ValueError:
         raise FitError(DEGENERATE_COVERAGE, "orientations seen leave the calibration undetermined: rotate about all axes")
-    inv_sqrt = linalg.sym_function(a_values, a_vectors, lambda l: num(1.0) / num(math.sqrt(float(l))))
     total = num(0.0)
-    two = num(2.0)
-    for direction in _ICO:
-        uu = [num(c) for c in direction]
-        v = linalg.matvec(inv_sqrt, uu)
-        av = linalg.matvec(am, v)
-        g = [v[0] * v[0] / two, v[1] * v[1] / two, v[2] * v[2] / two, v[0] * v[1], v[0] * v[2], v[1] * v[2], -av[0], -av[1], -av[2]]
+    for g in _sphere_gradients(a_values, a_vectors, am, num):
+        if dirs:
+            g = [sum(p[i] * g[i] for i in range(9)) for p in dirs]
         y = linalg.cho_solve(low, g)
-        for i in range(9):
+        for i in range(len(g)):
             total = total + g[i] * y[i]
     var = total / num(float(len(_ICO))) * rss / pb.nf
+    var = var + _bias_sq(pb, st, rss, low, a_values, a_vectors, am, num, dirs, centred)
     if not var >= num(0.0):
         raise FitError(NON_FINITE, "covariance is not finite")
     return num(math.sqrt(float(var)))
