@@ -45,12 +45,23 @@ QUICK_OFFSET_NT = 50.0
 QUICK_GAIN = 2e-3
 
 
-def _directions(st):
-    # The gain scales the quadric as a whole (d a = c a); the offsets move freely.
-    return [[float(x) for x in st.a] + [0.0, 0.0, 0.0],
-            [0.0] * 6 + [1.0, 0.0, 0.0],
-            [0.0] * 6 + [0.0, 1.0, 0.0],
-            [0.0] * 6 + [0.0, 0.0, 1.0]]
+class _GainAndOffsets:
+    """The quick fit's four directions: the gain scales the quadric as a whole
+    (d a = c a), the offsets move freely."""
+
+    @staticmethod
+    def directions(st):
+        return [[float(x) for x in st.a] + [0.0, 0.0, 0.0],
+                [0.0] * 6 + [1.0, 0.0, 0.0],
+                [0.0] * 6 + [0.0, 1.0, 0.0],
+                [0.0] * 6 + [0.0, 0.0, 1.0]]
+
+    @staticmethod
+    def apply(st, step):
+        # a (1 + c) in integers: the shape stays the previous one to the last bit
+        # whatever the float width that computed c (shared.solver's fixed point)
+        c = _quantise(step[0])
+        return [(a * c) >> FRAC for a in st.a_int], [_quantise(x) for x in step[1:]]
 
 
 def _rms(pb, rss, field):
@@ -67,8 +78,8 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
     n = pb.n
     pr = make_prior(pb, prior, field, num, kr, k_nom, shape_sigma, QUICK_OFFSET_NT, 2.0 * QUICK_GAIN)
     stale = _State(pb, pr, [_quantise(x) for x in pr.a_frame], [_quantise(x) for x in pr.f_target])
-    st, h, iterations, rejected = iterate(pb, pr, stale, num, max_iter, _directions)
-    dirs = _directions(st) if h is not None else None
+    st, h, iterations, rejected = iterate(pb, pr, stale, num, max_iter, _GainAndOffsets)
+    dirs = _GainAndOffsets.directions(st)
     cal = _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, float("inf"), h, dirs)
     d = cal.diagnostics
     d["rejected"] = rejected

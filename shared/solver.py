@@ -282,8 +282,10 @@ def _reduce(h, g, basis):
 def iterate(pb, pr, st, num, max_iter, basis=None):
     """Levenberg-Marquardt on objective (2) from the state st.
 
-    basis(st): the directions the parameters may move in (lists of 9 floats),
-    or None for all nine. Returns (state, normal matrix or None, iterations,
+    basis: None to move all nine parameters, or an object whose
+    directions(st) are the directions they may move in (lists of 9 floats)
+    and apply(st, step) turns a step in those coordinates into the integer
+    changes (da, df) of the state. Returns (state, normal matrix or None, iterations,
     rejected steps); the normal matrix is the last one formed, returned where
     it is valid at the state (see below), in the basis' coordinates.
     """
@@ -297,7 +299,7 @@ def iterate(pb, pr, st, num, max_iter, basis=None):
         h, g = _system(pb, st)
         if not _finite_all(g):
             raise FitError(NON_FINITE, "gradient is not finite")
-        dirs = basis(st) if basis else None
+        dirs = basis.directions(st) if basis else None
         if dirs:
             h, g = _reduce(h, g, dirs)
         k = len(g)
@@ -315,9 +317,10 @@ def iterate(pb, pr, st, num, max_iter, basis=None):
             if not _finite_all(step):
                 raise FitError(NON_FINITE, "step is not finite")
             if dirs:
-                step = [sum(step[c] * dirs[c][i] for c in range(k)) for i in range(9)]
-            da = [_quantise(x) for x in step[:6]]
-            df = [_quantise(x) for x in step[6:]]
+                da, df = basis.apply(st, step)
+            else:
+                da = [_quantise(x) for x in step[:6]]
+                df = [_quantise(x) for x in step[6:]]
             if not any(da) and not any(df):
                 break
             biggest = max(abs(float(x)) for x in step)

@@ -1,6 +1,7 @@
 # Runs under each interpreter (the micropython builds, CircuitPython, CPython, and the
 # bare-metal Cortex-M3 board, which has no sys.argv: it imports this file and calls
-# main()): reads a JSON job {"points": [[x, y, z], ...], "field": F or null, "scale": s}
+# main()): reads a JSON job {"points": [[x, y, z], ...], "field": F or null, "scale": s,
+# "prior": a previous calibration (quick re-calibration) or absent}
 # from the file named in argv[1], fits it with shared.fit (the repository root is
 # argv[2]) and prints one JSON line: the exact power sums, the calibration, and the
 # solver's fixed-point integer state at convergence (read by wrapping
@@ -13,6 +14,7 @@ def main(job_path, root):
     if root not in sys.path:
         sys.path.insert(0, root)
     from shared import solver
+    from shared.calibration import Calibration
     from shared.fit import EllipsoidFit, FitError
 
     states = []
@@ -28,13 +30,14 @@ def main(job_path, root):
     for p in job["points"]:
         fit.add(p[0], p[1], p[2])
     field, scale = job["field"], job["scale"]
+    prior = Calibration.from_dict(job["prior"]) if job.get("prior") else None
     job = None   # the points' lists: free before the solve (a board's heap is small)
     out = {"sums": [str(s) for s in fit.sums()]}
     solver._finish = _spy
     try:
-        cal = fit.solve(field=field, scale=scale)
+        cal = fit.solve(field=field, scale=scale, prior=prior)
         out["calibration"] = cal.to_dict()
-        out["state"] = states[-1]
+        out["state"] = states[0]   # a quick re-calibration solves twice: its own state first
     except FitError as exc:
         out["reason"] = exc.reason
     finally:
