@@ -47,6 +47,9 @@ _SAMPLE_CAL = "sample_cal"
 _SAMPLE = "sample"
 _ERROR_EVENT_MS = 1000   # at most one `error` event a second (all are counted)
 _SAFE_AFTER_ERRORS = 50  # passes in a row failing with a calibration applied: drop it (safe mode)
+# re-apply the temperature coefficients when the die moved this much: at 20 ppm/C and
+# 1 nT/C a step of 0.05 nT at 48,000 nT, below the noise
+_TEMP_STEP_C = 0.05
 
 
 class App:
@@ -72,6 +75,8 @@ class App:
         self._gap_cb = self._on_gap
         self._want_f = False
         self.cal_w = None
+        self.cal_now = None      # the calibration at the die temperature (tempco applied)
+        self._comp_temp = None
         self.errors = 0            # exceptions caught in the main loop since boot
         self.last_error = None
         self._errors_in_row = 0
@@ -167,7 +172,21 @@ class App:
         if want and not self._want_f:
             self.survey.restart()   # the open block's samples carry no |h_c|: start a new one
         self._want_f = want
-        self.cal_w = self.cal.scaled_input(self.cfg["window"]) if self.cal is not None else None
+        self._compensate(self.temp_c, True)
+
+    def _compensate(self, temp, force=False):
+        """The calibration at the die temperature (its tempco applied; docs/temperature.md),
+        recomputed when the temperature moved by _TEMP_STEP_C: about 40 float operations."""
+        cal = self.cal
+        if cal is not None and cal.tempco is not None and temp is not None:
+            if not force and self._comp_temp is not None and abs(temp - self._comp_temp) < _TEMP_STEP_C:
+                return
+            self._comp_temp = temp
+            cal = cal.at_temperature(temp)
+        elif not force:
+            return
+        self.cal_now = cal
+        self.cal_w = cal.scaled_input(self.cfg["window"]) if cal is not None else None
 
     # ****** main loop ******
     def run(self):
@@ -294,16 +313,17 @@ class App:
                 b.busy(_SAMPLE_CAL if self.session is not None else _SAMPLE, n)
         self._check_adc(b.ticks_ms())
         ev = self.button.poll()
-        if ev == SHORT:
-            if self.session is None:
-                try:
-                    self.start_session()
-                except ProtocolError as e:
-                    self.proto.event("cal", {"state": "failed", "reason": e.code, "msg": str(e)})
-                    self.led.flash(ledp.FAILED)
-            else:
-                self.finish_session()
-        elif ev == LONG and self.session is not None:
+        if ev is not None and self.session is None:
+            # idle: a short press starts a calibration (auto: quick or full by the coverage
+            # reached), a long one a quick re-calibration (docs/firmware.md, the button)
+            try:
+                self.start_session(calibrate.AUTO if ev == SHORT else calibrate.QUICK)
+            except ProtocolError as e:
+                self.proto.event("cal", {"state": "failed", "reason": e.code, "msg": str(e)})
+                self.led.flash(ledp.FAILED)
+        elif ev == SHORT:
+            self.finish_session()
+        elif ev == LONG:
             self.cancel_session()
         self.proto.poll()
         s = self.session
@@ -314,7 +334,9 @@ class App:
                 b.busy(_SOLVE)
             if b.ticks_diff(now, self.last_progress) >= 1000:
                 self.last_progress = now
-                self.proto.event("cal", s.progress())
+                self.proto.event("cal", s.progress(True))
+                if not s.ready():
+                    self.led.set(ledp.SLOW_DOWN if s.slow_down else ledp.COLLECTING)
             # coverage is a pass over all cells: check it only after a provisional solve
             if solved and s.ready():
                 self.led.set(ledp.ENOUGH)
@@ -364,12 +386,22 @@ class App:
         self.temp_c = temp
         if self.session is not None:
             self.session.add_temperature(temp)   # one per block: the die changes over seconds
-        cal = self.cal
+        self._compensate(temp)
+        cal = self.cal_now
         tcal = None
         warn = False
-        if cal is not None:
+        msg = None
+        if cal is not None and self.cal.tempco is not None:
+            # compensated: a warning only outside the range the coefficients were measured over
+            lo, hi = self.cal.tempco["range_c"]
+            warn = not self.cal.tempco_in_range(temp)
+            if warn:
+                msg = "temperature %.1f C outside the compensated %.1f..%.1f C" % (temp, lo, hi)
+        elif cal is not None:
             tcal = cal.meta.get("temperature_c")
             warn = tcal is not None and abs(temp - tcal) > self.cfg["temp_warn_c"]
+            if warn:
+                msg = "temperature %.1f C differs from calibration %.1f C" % (temp, tcal)
         self.cal_temp_warn = warn
         if not self._want_f:
             return   # nothing goes out: no stream, no log
@@ -381,7 +413,6 @@ class App:
             bx, by, bz = x * k[0], y * k[1], z * k[2]
         r = json_number
         if self.stream == "corrected":
-            msg = "temperature %.1f C differs from calibration %.1f C" % (temp, tcal) if warn else None
             self.proto.event("data", {"t": t, "b": [r(bx), r(by), r(bz)], "f": r(f), "temp": r(temp, 2),
                                       "c": [r(x, 2), r(y, 2), r(z, 2)], "cal": cal is not None, "warn": msg})
         elif self.stream == "raw":
@@ -390,14 +421,20 @@ class App:
             self.log.write("%d,%.3f,%.3f,%.3f,%.3f,%.2f\n" % (t, bx, by, bz, f, temp))
 
     # ****** calibration flow (the button and commands.py both drive it) ******
-    def start_session(self):
+    def start_session(self, kind=calibrate.AUTO):
         if self.session is not None:
             raise ProtocolError("busy", "calibration already in progress")
         if self.fault:
             raise ProtocolError("fault", "ADC fault (%s): %s" % (self.fault_code, self.fault))
+        if kind not in calibrate.KINDS:
+            raise ProtocolError("bad_argument", "kind must be auto, full or quick")
+        if kind == calibrate.QUICK and self.cal is None:
+            raise ProtocolError("no_calibration", "a quick re-calibration needs a calibration in force: run a full one")
         c = self.cfg
         period_ms = 1000.0 * c["decim"] / c["rate"]
-        self.session = calibrate.Session(c, self.scale, c["window"], period_ms, None, self.board.ticks_ms())
+        # the previous calibration as it stands now (its temperature coefficients applied)
+        prior = None if kind == calibrate.FULL else self.cal_now
+        self.session = calibrate.Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind)
         self.last_progress = self.board.ticks_ms()
         self.led.set(ledp.COLLECTING)
         self.proto.event("cal", self.session.progress())
@@ -420,6 +457,7 @@ class App:
                 cal.meta["time"] = t
             cal.meta["rate"] = self.cfg["rate"]
             cal.meta["scale"] = list(self.scale)
+            cal, result["tempco"] = self._with_tempco(cal)
             saved, err = self.install(cal)
             result["saved"] = saved
             if err:
@@ -428,11 +466,32 @@ class App:
             for k in ("rms", "predicted_error", "observability"):
                 result[k] = json_number(d.get(k), 4)
             result["field"] = json_number(cal.field, 2)
-            self.led.flash(ledp.DONE)
+            result["kind"] = cal.meta.get("kind")
+            self.led.flash(ledp.DONE if result["kind"] == calibrate.FULL else ledp.DONE_QUICK)
         self.last_result = result
         self.proto.event("cal", result)
         self._steady_led()
         return result
+
+    def _with_tempco(self, new):
+        """new with temperature coefficients: fitted against the calibration it replaces when
+        their temperatures are tempco_min_span_c apart, else the previous ones carried over.
+        Returns (calibration, "fitted" / "kept" / None)."""
+        prev = self.cal
+        t_new = new.meta.get("temperature_c")
+        if prev is None or t_new is None:
+            return new, None
+        from shared import tempco   # here: its bytecode is heap on a board without frozen modules
+        t_prev = prev.meta.get("temperature_c")
+        if t_prev is not None and abs(t_new - t_prev) >= self.cfg["tempco_min_span_c"]:
+            try:
+                return tempco.attach(new, tempco.fit_tempco([prev, new])), "fitted"
+            except ValueError as e:   # not the same sensor or unit: no coefficients, said so
+                self.proto.event("error", {"msg": "temperature coefficients not fitted: %s" % e})
+                return new, None
+        if prev.tempco is not None:
+            return tempco.attach(new, prev.tempco), "kept"
+        return new, None
 
     def cancel_session(self):
         s = self._end_session()

@@ -1,6 +1,6 @@
 """The one-button in-field calibration: gate samples, fit, check, accept or refuse.
 
-    s = Session(cfg, scale, window, period_ms, prior=None, now_ms=0)
+    s = Session(cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto")
     s.sample(sx, sy, sz)           # each decimated sample (integer boxcar sums)
     s.tick(now_ms)                 # provisional solve every solve_every_s
     s.ready()                      # coverage and predicted error reached
@@ -12,10 +12,16 @@ below stays a small int (< 2**30: no heap allocation on MicroPython, where a
 float op or a bigger int allocates) and the cell index is cheap; 14 bits put
 one step at ~0.01 degree of direction, far below the ~20 degree cells and the
 gate's ~7 degree turn per sample.
-1. rotation rate: the chord |v_k - v_(k-1)| (offset free) over |v - c| and the
-   sample period gives the turn rate; above gate_rate_dps the boxcar smears
-   |B| (shrink ~ (w T)^2 / 24), so the sample is dropped. The gate works in
-   codes: exact for equal scale_x/y/z, tilted by their ratio otherwise.
+1. rotation rate: the chord |v_k - v_(k-s)| (offset free) over |v - c| and s
+   sample periods gives the turn rate; above the gate the sample is dropped.
+   The gate is the lower of gate_rate_dps (the boxcar smears |B|: shrink
+   ~ (w T)^2 / 24) and what the sensor's own bandwidth allows: a first-order
+   low-pass of time constant tau = 1 / (2 pi sensor_bandwidth_hz) reads
+   |B| (1 - (tau w)^2 / 2) while turning at w (docs/experiments.md, lag), so
+   w <= sqrt(2 lag_tol_nt / B) / tau: 720 deg/s for a 1 kHz Mag649 (the
+   360 deg/s gate stands), 8 deg/s for a 5 Hz Mag648. The stride s spans
+   enough samples that the allowed turn is a few 14-bit steps. The gate works
+   in codes: exact for equal scale_x/y/z, tilted by their ratio otherwise.
 2. coverage cap: 6*cells^2 equal-area cells about the centre (the previous
    calibration's offset, else the front end's zero: raw offsets are < 2 % of
    |B|, a direction error of ~1 degree against ~20 degree cells); a full
@@ -29,6 +35,13 @@ gate's ~7 degree turn per sample.
    rejected until |B| has stayed within a tenth of the gate for a second
    (the dipole's 1/r^3 tail, tests/test_device_calibration.py).
 
+Kinds (start-cal quick|full|auto, docs/protocol.md): a full calibration fits
+all nine parameters; a quick re-calibration (shared/quick.py) keeps the shape
+of the calibration in force and fits its offsets and common gain from a
+partial rotation, auto-finishing at quick_min_coverage; auto (the button's
+short press) decides at the end: quick when a calibration is in force and the
+coverage stayed under min_coverage, else full.
+
 The fit runs on the full boxcar sums (units: code/window; exact integers:
 EllipsoidFit.add costs the same ~25 us on the unix port for 17- to 24-bit
 inputs, so shifting them would buy nothing); the accepted calibration is
@@ -40,6 +53,11 @@ from array import array
 
 from shared.fit import EllipsoidFit, FitError
 from shared.coverage import Coverage
+
+FULL = "full"
+QUICK = "quick"
+AUTO = "auto"
+KINDS = (AUTO, FULL, QUICK)
 
 COLLECTING = "collecting"
 DONE = "done"
@@ -56,11 +74,21 @@ _RUN = 3             # consecutive outliers that make a disturbance
 _PROVISIONAL_ITER = 1
 _GATE_BITS = 14      # gate/cell arithmetic: |v| < 2**14, so |v|^2 sums stay < 2**30
 _G_SHIFT = 16        # rate gate: d^2 > (r^2 >> 16) * round(angle^2 * 2**16)
+_MAX_STRIDE = 64     # rate gate baseline, samples (0.64 s at 100 samples/s)
+
+
+def gate_dps(cfg):
+    """The rotation-rate gate: gate_rate_dps, or lower where the sensor's bandwidth lags."""
+    tau = 1.0 / (2.0 * math.pi * cfg["sensor_bandwidth_hz"])
+    field = cfg["field_nt"] or 50000.0
+    lag = math.sqrt(2.0 * cfg["lag_tol_nt"] / field) / tau * 180.0 / math.pi
+    return min(cfg["gate_rate_dps"], lag)
 
 
 class Session:
-    def __init__(self, cfg, scale, window, period_ms, prior=None, now_ms=0):
+    def __init__(self, cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto"):
         self.cfg = cfg
+        self.kind = kind if prior is not None else FULL   # no calibration in force: only a full one
         self.window = window
         # nT per sum unit, per axis
         self.k = (scale[0] / window, scale[1] / window, scale[2] / window)
@@ -102,15 +130,28 @@ class Session:
         self.clipped = 0            # samples at the ADC's full scale (screen.py; not fitted)
         self.clip_axis = None
         self._fresh = True          # no previous sample to compare with
-        self._px = self._py = self._pz = 0
         self._dist_run = 0
         self._hold = 0              # samples still to reject after a disturbance
         self._hist = array("i", bytes(4 * 5 * _HIST))  # x, y, z, sample index, cell
         self._hn = 0
         self._hi = 0
         self._back = int(1000 / period_ms) + 1   # samples in one second (backoff)
-        g = cfg["gate_rate_dps"] * math.pi / 180.0 * period_ms / 1000.0
-        self._g = max(1, int(g * g * (1 << _G_SHIFT) + 0.5))   # max squared turn angle per sample
+        self.gate_dps = gate_dps(cfg)
+        g = self.gate_dps * math.pi / 180.0 * period_ms / 1000.0
+        # compare with the sample `stride` back, so the allowed turn is >= 1/64 rad: a few
+        # steps of the 14-bit vectors (a slow sensor's gate is ~1e-3 rad per sample)
+        stride = 1
+        while g * stride < 0.016 and stride < _MAX_STRIDE:
+            stride += 1
+        self._stride = stride
+        self._ring = array("i", bytes(4 * 3 * stride))   # the last `stride` shifted samples
+        self._ri = 0
+        self._filled = 0
+        g = g * stride
+        self._g = max(1, int(g * g * (1 << _G_SHIFT) + 0.5))   # max squared turn angle per stride
+        self._fast_mark = 0          # rej_rate / seen at the last progress report
+        self._seen_mark = 0
+        self.slow_down = False       # most samples of the last report turned too fast
 
     def elapsed_s(self, now_ms, diff):
         return diff(now_ms, self.started) / 1000.0
@@ -129,14 +170,20 @@ class Session:
         x = (sx >> sh) - self._cx
         y = (sy >> sh) - self._cy
         z = (sz >> sh) - self._cz
-        dx = x - self._px
-        dy = y - self._py
-        dz = z - self._pz
-        self._px = x
-        self._py = y
-        self._pz = z
         if self._fresh:
             self._fresh = False
+            self._filled = 0
+        r = self._ring
+        i = self._ri * 3
+        dx = x - r[i]
+        dy = y - r[i + 1]
+        dz = z - r[i + 2]
+        r[i] = x
+        r[i + 1] = y
+        r[i + 2] = z
+        self._ri = (self._ri + 1) % self._stride
+        if self._filled < self._stride:
+            self._filled += 1
             return False
         # 1. rotation rate: chord^2 > angle^2 |r|^2, in small ints
         if dx * dx + dy * dy + dz * dz > ((x * x + y * y + z * z) >> _G_SHIFT) * self._g:
@@ -208,8 +255,17 @@ class Session:
         self.temp_sum += celsius
         self.temp_n += 1
 
-    def _solve(self, max_iter=60):
-        return self.fit.solve(field=None, prior=self.prior, scale=self.k, max_iter=max_iter)
+    def quick(self):
+        """True if this session ends in a quick re-calibration (so far)."""
+        if self.kind == QUICK:
+            return True
+        return self.kind == AUTO and self.coverage() < self.cfg["min_coverage"]
+
+    def _solve(self, max_iter=60, final=False):
+        # provisional solves of an auto session are full ones: it becomes quick only at the end
+        quick = self.kind == QUICK or (final and self.quick())
+        return self.fit.solve(field=None, prior=self.prior if quick else None, scale=self.k, max_iter=max_iter,
+                              refuse_worse=final)
 
     def tick(self, now_ms, diff):
         """Provisional solve every solve_every_s; returns True if one ran."""
@@ -237,13 +293,23 @@ class Session:
 
     def ready(self):
         pe = self.provisional_error
-        return (self.coverage() >= self.cfg["min_coverage"] and pe is not None
-                and pe <= self.cfg["target_error_nt"])
+        need = self.cfg["quick_min_coverage"] if self.kind == QUICK else self.cfg["min_coverage"]
+        return self.coverage() >= need and pe is not None and pe <= self.cfg["target_error_nt"]
 
-    def progress(self):
+    def progress(self, report=False):
+        """The session's state; report: the once-a-second event, which also decides
+        slow_down from the samples since the last one."""
         pe = self.provisional_error
+        if report:
+            seen = self.seen - self._seen_mark
+            self.slow_down = seen > 0 and 2 * (self.rej_rate - self._fast_mark) > seen
+            self._fast_mark = self.rej_rate
+            self._seen_mark = self.seen
         return {
             "state": self.state,
+            "kind": self.kind,
+            "gate_dps": round(self.gate_dps, 1),
+            "slow_down": self.slow_down,
             "n": self.fit.n,
             "seen": self.seen,
             "coverage": round(self.coverage(), 3),
@@ -270,18 +336,26 @@ class Session:
                               " or keep magnets and iron away; the sensor saturates there"
                               % (self.clipped, "" if self.clip_axis is None else " on " + "xyz"[self.clip_axis]))
         try:
-            cal = self._solve()
+            cal = self._solve(final=True)
         except FitError as e:
-            return self._fail(e.reason, str(e))
+            return self._fail_fast(e.reason, str(e))
         problem = self.check(cal)
         if problem:
-            return self._fail(problem[0], problem[1])
+            return self._fail_fast(problem[0], problem[1])
         self.state = DONE
         code_cal = cal.scaled_input(1.0 / self.window)
         code_cal.diagnostics["coverage"] = round(self.coverage(), 4)
+        code_cal.meta["kind"] = cal.diagnostics.get("mode", FULL)
         if self.temp_n:
             code_cal.meta["temperature_c"] = round(self.temp_sum / self.temp_n, 2)
         return code_cal, None, None
+
+    def _fail_fast(self, reason, message):
+        # most samples turned faster than the gate: that, not the coverage, is the reason
+        if self.rej_rate * 2 > self.seen and reason != "not_better":
+            return self._fail("too_fast", "%d of %d samples turned faster than %.0f deg/s (%s): turn slower"
+                              % (self.rej_rate, self.seen, self.gate_dps, message))
+        return self._fail(reason, message)
 
     def _fail(self, reason, message):
         self.state = FAILED
@@ -311,7 +385,8 @@ def check_calibration(cal, cfg, k):
         return ("rms_too_high", "fit residual %.2f nT > %.2f nT: hold the sensor away from iron and rotate smoothly"
                 % (rms, cfg["max_rms_nt"]))
     obs = _number(d, "observability")
-    if obs is not None and obs < cfg["min_observability"]:
+    # a quick re-calibration takes its shape from the previous one: a cap is what it is for
+    if obs is not None and obs < cfg["min_observability"] and d.get("mode") != QUICK:
         return ("poor_observability", "observability %.3f < %.3f: rotate about all three axes"
                 % (obs, cfg["min_observability"]))
     pe = _number(d, "predicted_error")

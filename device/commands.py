@@ -55,6 +55,10 @@ def status(app, args):
         "uptime_ms": app.board.ticks_diff(app.board.ticks_ms(), app.boot_ms),
         "temp": json_number(app.temp_c, 2),
         "temp_warn": app.cal_temp_warn,
+        # which kind made the calibration in force, and the range its temperature
+        # coefficients were measured over (None: uncompensated)
+        "cal_kind": app.cal.meta.get("kind", "full") if app.cal is not None else None,
+        "tempco_range": app.cal.tempco["range_c"] if app.cal is not None and app.cal.tempco else None,
         "last_cal": app.last_result,
     }
     if app.adc is not None:
@@ -114,8 +118,11 @@ def clear_cal(app, args):
 
 
 def start_cal(app, args):
-    app.start_session()
-    return {}
+    # start-cal [auto|full|quick]: auto (the button's short press) ends quick when a
+    # calibration is in force and the coverage stays partial, else full
+    kind = args.strip() or calibrate.AUTO
+    app.start_session(kind)
+    return {"kind": app.session.kind}
 
 
 def finish_cal(app, args):

@@ -54,6 +54,14 @@ SCHEMA = {
     "field_nt": (None, "opt_float", 1000.0, 100000.0),  # local field if known (e.g. IGRF)
     "field_tol": (0.05, "float", 0.001, 0.5),     # accepted |fitted/configured - 1|
     "gate_rate_dps": (360.0, "float", 10.0, 5000.0),  # rotation-rate gate: 1 rev/s (smearing)
+    # the sensor's -3 dB bandwidth (Mag649 1 kHz, Mag648 5 Hz): its lag shrinks |B| by
+    # (tau w)^2 / 2 while turning, so the gate comes down to keep that under lag_tol_nt
+    # (calibrate.py gate_dps; docs/experiments.md, lag)
+    "sensor_bandwidth_hz": (1000.0, "float", 0.1, 100000.0),
+    "lag_tol_nt": (0.5, "float", 0.001, 100.0),
+    "quick_min_coverage": (0.1, "float", 0.01, 1.0),  # a quick re-calibration auto-finishes here
+    # calibrations this far apart in temperature give the offsets' and gains' coefficients
+    "tempco_min_span_c": (2.0, "float", 0.5, 100.0),
     "cells": (4, "int", 2, 12),                   # 6*cells^2 coverage cells
     "cell_cap": (24, "int", 1, 10000),            # samples per cell into the fit
     "min_coverage": (0.5, "float", 0.05, 1.0),    # to allow auto-finish

@@ -159,7 +159,7 @@ class EllipsoidFit:
             s[k] += o[k]
 
     def solve(self, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175),
-              min_samples=12, max_iter=60, max_error=None, quick=True):
+              min_samples=12, max_iter=60, max_error=None, quick=True, refuse_worse=True):
         """Fit h_c = M (h - b) with |h_c| constant; return a Calibration.
 
         field: the known local field in the output unit (nT), or None to fit it.
@@ -167,6 +167,8 @@ class EllipsoidFit:
             re-calibration (shared.quick: its shape, today's offsets and common
             gain; FitError not_better if it would not improve on the prior).
         quick: False to fit all nine parameters with the prior as a weak one.
+        refuse_worse: False to return a quick re-calibration even when it is not
+            expected to beat the prior (a device's provisional estimate).
         num: the number type of the float work (float on the device;
             numpy.float32 or a rounding class to emulate narrow floats).
         scale: nominal output unit per input unit, a number or 3 numbers
@@ -185,5 +187,6 @@ class EllipsoidFit:
         self._unpack()
         if prior is not None and quick:
             from shared import quick as quick_fit
-            return quick_fit.solve(self._s, prior, field, num, scale, shape_sigma, min_samples, max_iter, max_error)
+            return quick_fit.solve(self._s, prior, field, num, scale, shape_sigma, min_samples, max_iter, max_error,
+                                   refuse_worse)
         return solver.solve(self._s, field, prior, num, scale, shape_sigma, min_samples, max_iter, max_error)

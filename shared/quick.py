@@ -70,7 +70,7 @@ def _rms(pb, rss, field):
 
 
 def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175), min_samples=12,
-          max_iter=60, max_error=None):
+          max_iter=60, max_error=None, refuse_worse=True):
     """Quick re-calibration from the power sums; see the module docstring."""
     if field is None:
         field = prior.field
@@ -110,7 +110,8 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
         raise FitError(DEGENERATE_COVERAGE, "predicted calibration error %.3g exceeds %.3g: rotate through more orientations"
                        % (d["predicted_error"], limit))
     stale_error = math.sqrt(prev_error ** 2 + max(0.0, stale_rms ** 2 - d["rms"] ** 2))
-    if d["predicted_error"] >= stale_error:
+    d["stale_error"] = stale_error
+    if refuse_worse and d["predicted_error"] >= stale_error:
         raise FitError(NOT_BETTER, "predicted error %.3g is not below the previous calibration's %.3g on these samples: it stays"
                        % (d["predicted_error"], stale_error))
     return cal

@@ -66,14 +66,24 @@ def test_failed_calibrations_keep_the_previous_one(tmp_path):
     #    one circle. Either the solve finds the ellipsoid unconstrained (degenerate_coverage:
     #    predicted error > 1 % of the field) or, when the shape prior carries it, the check
     #    finds no third dimension in the scatter (poor_observability); which one depends on
-    #    the arc. Never a data-quality reason, never accepted.
-    w.press(0.2)
+    #    the arc. Never a data-quality reason, never accepted. (A full one, asked for by
+    #    command: with a calibration in force the button's press would make it quick, 1b.)
+    w.send(b"start-cal full\n")
     dev.run_until(w.time + 0.5)
     w.send(b"finish-cal\n")
     dev.run_until(w.time + 0.1)
     res = _last_cal(w)
     assert res["state"] == "failed" and res["reason"] in ("degenerate_coverage", "poor_observability"), res
     assert res["n"] < 60 and ("rotate" in res["msg"] or "coverage" in res["msg"]), res
+    # 1b. the same half turn from the button: with a calibration in force and partial coverage
+    #     it ends as a quick re-calibration, which nothing has drifted for: the previous stays
+    w.press(0.2)
+    dev.run_until(w.time + 0.5)
+    w.send(b"finish-cal\n")
+    dev.run_until(w.time + 0.1)
+    res = _last_cal(w)
+    assert res["state"] == "failed" and res["reason"] == "not_better", res
+    assert "it stays" in res["msg"]
     # 2. the operator configured the wrong local field: the fit is fine, the check refuses it
     w.send(b"config set field_nt 30000\n")
     dev.run_until(w.time + 0.1)
