@@ -5,7 +5,7 @@ import time
 
 from desktop.cli import CommandError
 
-HELP = "reproduce a paper experiment (table1, table2, fig6, fig7, fig8, smearing): PNG + markdown table"
+HELP = "reproduce a paper experiment (table1, table2, fig6, fig7, fig8, smearing, lag): PNG + markdown table"
 
 
 def add_arguments(p):
@@ -19,9 +19,10 @@ def run(args):
         import matplotlib  # noqa: F401
     except ImportError:
         raise CommandError("the experiments draw plots with matplotlib: pip install 'fluxcal[plots]'")
-    from desktop.experiments import EXPERIMENTS, coverage, smearing, tables
+    from desktop.experiments import EXPERIMENTS, coverage, lag, smearing, tables
     runners = {"table1": tables.table1, "table2": tables.table2, "fig6": tables.fig6,
-               "fig7": coverage.run, "fig8": coverage.run, "smearing": smearing.run}
+               "fig7": coverage.run, "fig8": coverage.run, "smearing": smearing.run,
+               "lag": lag.run}
     try:
         os.makedirs(args.output, exist_ok=True)
     except OSError as exc:

@@ -41,8 +41,11 @@ def accumulate(h, lsb=LSB_NT):
     return fit
 
 
-def fit_array(h, method="streaming", field=None, float32=False, prior=None, lsb=LSB_NT):
+def fit_array(h, method="streaming", field=None, float32=False, prior=None, lsb=LSB_NT, max_error=None):
     """Fit a calibration to raw readings h ((N, 3) nT); returns a Calibration on nT.
+
+    max_error (streaming only): the predicted full-sphere error (nT) above which
+    the solve refuses (degenerate_coverage); None: the core's default, 1 % of the field.
 
     Raises shared.fit.FitError (streaming) or ValueError (references) when the
     data cannot be calibrated.
@@ -52,7 +55,7 @@ def fit_array(h, method="streaming", field=None, float32=False, prior=None, lsb=
         num = np.float32 if float32 else float
         if prior is not None:
             prior = prior.scaled_input(1.0 / lsb)
-        cal = accumulate(h, lsb).solve(field=field, prior=prior, num=num, scale=lsb)
+        cal = accumulate(h, lsb).solve(field=field, prior=prior, num=num, scale=lsb, max_error=max_error)
         return cal.scaled_input(lsb)
     if method == "algebraic":
         from desktop.methods.algebraic import fit_li_griffiths as fun
