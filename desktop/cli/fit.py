@@ -1,42 +1,121 @@
-"""fluxcal fit RAW -o CAL.json"""
+"""fluxcal fit RAW -o CAL.json [--prior OLD.json] [--max-predicted NT | --accept-anyway]
+
+The written calibration's predicted full-sphere error is the honest one of
+desktop.methods.residuals (the core's white-noise value inflated by the
+residuals' correlation in time, with a systematic floor); a calibration
+predicted worse than --max-predicted is refused like the firmware refuses it
+(reason predicted_error_too_high, device/calibrate.py), unless --accept-anyway.
+"""
+
+import os
+import sys
 
 from desktop.cli import CommandError
 from desktop.methods import METHODS
 
 HELP = "fit a calibration to raw readings (CSV x,y,z in nT, or a capture .npz)"
 
+# The firmware's acceptance threshold (device/config.py, max_predicted_nt).
+MAX_PREDICTED_NT = 5.0
+REFUSED = "predicted_error_too_high"
+# tau_int above this (samples) names the sensor's lag, not the coverage, as the cause
+CORRELATED_TAU = 3.0
+
 
 def add_arguments(p):
-    p.add_argument("raw", help="CSV with a header containing x,y,z (nT), or a simulator .npz")
+    p.add_argument("raw", help="CSV with a header containing x,y,z (nT), or a simulator .npz; in time order")
     p.add_argument("-o", "--output", required=True, help="calibration JSON to write")
     p.add_argument("--method", choices=METHODS, default="streaming",
                    help="streaming (the device's own fit, default), algebraic, mle or paper-nn")
     p.add_argument("--field", type=float, default=None, help="known local field magnitude, nT")
     p.add_argument("--float32", action="store_true", help="run the streaming solve in 32-bit floats, as most boards do")
+    p.add_argument("--prior", metavar="OLD.json", default=None,
+                   help="a previous calibration of this sensor: quick re-calibration (offsets and common gain, "
+                        "its shape kept unless the data say otherwise; streaming only)")
+    p.add_argument("--max-predicted", type=float, default=MAX_PREDICTED_NT, metavar="NT",
+                   help="refuse (exit 1, nothing written) when the predicted full-sphere error exceeds this, nT "
+                        "(default %(default)g, the firmware's max_predicted_nt)")
+    p.add_argument("--accept-anyway", action="store_true",
+                   help="write the calibration even when its predicted error exceeds --max-predicted (a warning)")
+
+
+def _load_prior(path):
+    from desktop.formats.calibration import load_calibration, plausibility_problem, takes_codes, to_nT_units
+
+    prior = load_calibration(path)
+    if takes_codes(prior):
+        scale = prior.meta.get("scale")
+        if scale is None:
+            raise CommandError("%s takes ADC codes and has no meta.scale (nT per code) to convert it" % path)
+        prior = to_nT_units(prior, scale)
+    problem = plausibility_problem(prior)
+    if problem:
+        raise CommandError("%s: not a plausible calibration: %s" % (path, problem))
+    return prior
 
 
 def run(args):
     from desktop.formats.calibration import save_calibration
     from desktop.formats.readings import read_raw
     from desktop.methods import fit_array
+    from desktop.methods.residuals import honest_error
     from shared.fit import FitError
 
     if args.field is not None and not args.field > 0:
         raise CommandError("--field must be a positive number of nT")
     if args.float32 and args.method != "streaming":
         raise CommandError("--float32 applies to the streaming method only")
+    if args.prior is not None and args.method != "streaming":
+        raise CommandError("--prior applies to the streaming method only (a quick re-calibration of the device's fit)")
+    if not args.max_predicted > 0:
+        raise CommandError("--max-predicted must be a positive number of nT")
+    prior = _load_prior(args.prior) if args.prior is not None else None
     h = read_raw(args.raw)
+    # With --accept-anyway the core's own refusal (predicted > 1 % of the field) is lifted too.
+    max_error = float("inf") if args.accept_anyway else None
     try:
-        cal = fit_array(h, args.method, field=args.field, float32=args.float32)
+        cal = fit_array(h, args.method, field=args.field, float32=args.float32, prior=prior, max_error=max_error)
     except FitError as exc:
         raise CommandError("calibration failed (%s): %s" % (exc.reason, exc.message))
     except (ValueError, ArithmeticError) as exc:
         raise CommandError("calibration failed (%s): %s" % (args.method, exc))
+    honest = honest_error(cal, h, pinned=args.field is not None or prior is not None)
+    d = cal.diagnostics
+    predicted = honest["predicted_error"]
+    if predicted is not None:
+        d.update(predicted_error=predicted, predicted_error_white=honest["predicted_error_white"],
+                 tau_int=honest["tau_int"], residual_white_rms=honest["white"],
+                 systematic_floor=honest["applied_floor"])
+    refused = predicted is not None and predicted > args.max_predicted
+    if refused and not args.accept_anyway:
+        raise CommandError("calibration refused (%s): %s" % (REFUSED, _why(honest, args.max_predicted)))
     cal.meta["method"] = args.method
     cal.meta["source"] = args.raw
+    if args.prior is not None:
+        cal.meta["prior"] = os.path.basename(args.prior)[-200:]
     save_calibration(args.output, cal)
-    d = cal.diagnostics
     print("%s: %d samples, field %.2f nT, residual rms %.3f nT" % (args.method, d.get("n", len(h)), cal.field, d.get("rms", float("nan"))))
-    if "predicted_error" in d:
-        print("predicted full-sphere calibration error %.3f nT, observability %.3f" % (d["predicted_error"], d["observability"]))
+    if prior is not None:
+        print("prior %s: %s" % (args.prior, "mode %s" % d["mode"] if "mode" in d else "used as a weak prior (no mode reported)"))
+    if predicted is not None:
+        floor = honest["applied_floor"]
+        print("predicted full-sphere calibration error %.3f nT (white-noise estimate %.3f nT; residuals correlated "
+              "over tau_int %.1f samples%s), observability %.3f"
+              % (predicted, honest["predicted_error_white"], honest["tau_int"],
+                 "; systematic floor %.3f nT" % floor if floor else "", d["observability"]))
+    else:
+        print("no predicted error for the %s method: not checked against --max-predicted" % args.method)
+    if refused:
+        print("fluxcal: warning: %s: %s; written anyway (--accept-anyway)" % (REFUSED, _why(honest, args.max_predicted)),
+              file=sys.stderr)
     return 0
+
+
+def _why(honest, limit):
+    """One line: the predicted error, the limit and what to do about it."""
+    if honest["tau_int"] > CORRELATED_TAU:
+        hint = ("the residuals are correlated over %.0f samples (%.0f nT rms, white %.2f nT): the sensor lags "
+                "the rotation or the field moved, turn more slowly" % (honest["tau_int"], honest["rms"], honest["white"]))
+    else:
+        hint = "cover more orientations"
+    return "predicted error %.2f nT > %.2f nT: %s" % (honest["predicted_error"], limit, hint)
