@@ -74,8 +74,11 @@ class Handheld:
         self._chain = AnalogChain(sc, self.motion, noise_rng, step, 4 % step)
         self.grid_rate, self._step, self.t0, self.scenario = rate, step, t0, sc
         self.sensor = self._chain.sensor
-        self.chips = [ADS1292(chip_ids[0], seed=rng_a, fault=fault[0], noise=sc.adc_noise, batch=batch),
-                      ADS1292(chip_ids[1], seed=rng_b, fault=fault[1], noise=sc.adc_noise, batch=batch)]
+        k_a, k_b = sc.vref_tempco()      # each chip's reference drift (Scenario vref_drift)
+        self.chips = [ADS1292(chip_ids[0], seed=rng_a, fault=fault[0], noise=sc.adc_noise, batch=batch,
+                              vref_tempco=k_a),
+                      ADS1292(chip_ids[1], seed=rng_b, fault=fault[1], noise=sc.adc_noise, batch=batch,
+                              vref_tempco=k_b)]
         self.bus = SPIBus(self.chips)
         self._g0 = 0            # first grid sample the chips hold
         self._g_done = 0        # grid samples computed

@@ -31,6 +31,8 @@ from desktop.sim.motion import make_motion, to_sensor
 from desktop.sim.sensor import Fluxgate
 
 RATES = ads.DATA_RATES
+VREF_PPM_PER_C = 45.0      # the internal reference's drift bound [DS §6.5]
+VREF_STREAM = 1292         # the seed's stream for the reference drifts (apart from the sensor's)
 
 
 class Scenario:
@@ -58,6 +60,16 @@ class Scenario:
     gradient : float           field gradient, nT/m
     dipole : dict or None      passing dipole (see desktop.sim.field.Field)
     temp_c, temp_drift : float temperature at start (C) and its drift (C/min)
+    temp_profile : list or None  [(t_s, temp_c), ...]: the temperature piecewise linear
+                               through these points (held before the first and after
+                               the last); replaces temp_c and temp_drift (which must
+                               then be 0)
+    vref_drift : "seed", float or (float, float)
+                               the ADS1292 internal reference's drift, ppm/C about 25 C,
+                               one per chip (A: X, Y; B: Z and the die temperature);
+                               "seed": each drawn uniformly within +-45 ppm/C [DS §6.5]
+                               from `seed` (its own stream: the sensor's errors are
+                               unchanged); 0: none. No effect at 25 C.
     grid_rate : int or "auto"  analog grid, Hz (128 kHz / 1, 2, 4, 8 or 16); auto:
                                max(8 kHz, 2 x rate), two or more samples per
                                conversion and 4 kHz of analog bandwidth
@@ -69,7 +81,7 @@ class Scenario:
                     bandwidth="preset", ideal=False, adc_noise=True, gain=1, vref_4v=False,
                     field_nT=EARTH_NT, inclination_deg=INCLINATION_DEG, declination_deg=DECLINATION_DEG,
                     drift=0.0, gradient=0.0, dipole=None, temp_c=25.0, temp_drift=0.0,
-                    grid_rate="auto", dwell=0.002)
+                    temp_profile=None, vref_drift="seed", grid_rate="auto", dwell=0.002)
 
     def __init__(self, **kw):
         unknown = set(kw) - set(self.DEFAULTS)
@@ -85,6 +97,55 @@ class Scenario:
             raise ValueError("coverage must be in (0, 1], got %r" % self.coverage)
         if self.seconds <= 0:
             raise ValueError("seconds must be positive")
+        if self.temp_profile is not None:
+            pts = [(float(t), float(c)) for t, c in self.temp_profile]
+            times = [t for t, _ in pts]
+            if not pts or any(b < a for a, b in zip(times, times[1:])):
+                raise ValueError("temp_profile must be (t_s, temp_c) points in time order")
+            if not all(-60.0 <= c <= 130.0 and np.isfinite(t) for t, c in pts):
+                raise ValueError("temp_profile temperatures must be within -60..130 C at finite times")
+            if self.temp_drift:
+                raise ValueError("temp_profile replaces temp_drift: give one of them")
+            self.temp_profile = [list(p) for p in pts]    # JSON-ready
+        self.vref_tempco()                                  # checks vref_drift
+
+    def temperature(self, t):
+        """Temperature (C) at times t (s), an array like t (temp_profile, else temp_c + temp_drift t)."""
+        t = np.asarray(t, dtype=float)
+        if self.temp_profile is not None:
+            pts = np.array(self.temp_profile)
+            return np.interp(t, pts[:, 0], pts[:, 1])
+        return self.temp_c + self.temp_drift * t / 60.0
+
+    def vref_tempco(self):
+        """(2,) reference drift of chip A and chip B, relative per C about 25 C (vref_drift)."""
+        v = self.vref_drift
+        if self.ideal:
+            return np.zeros(2)
+        if isinstance(v, str):
+            if v != "seed":
+                raise ValueError("vref_drift must be 'seed', a number or two numbers (ppm/C)")
+            rng = np.random.default_rng(np.random.SeedSequence([int(self.seed), VREF_STREAM]))
+            return rng.uniform(-VREF_PPM_PER_C, VREF_PPM_PER_C, 2) * 1e-6
+        k = np.broadcast_to(np.asarray(v, dtype=float), (2,)) * 1e-6
+        if not np.all(np.isfinite(k)):
+            raise ValueError("vref_drift must be finite")
+        return k.copy()
+
+    def code_model(self, temp_c):
+        """(P (3, 3), q (3,)): noise-free DC codes of X, Y, Z = P b + q for the field b (nT,
+        sensor frame) at a steady temperature temp_c (C): the sensor's eq. (1), the front end
+        and each chip's reference at that temperature. The exact calibration there (the
+        floor) is matrix P^-1 (up to a rotation), offset q."""
+        fg = self.fluxgate()
+        dt = float(temp_c) - 25.0
+        cfg = ads.Config(self.registers()[0])
+        k_v = self.vref_tempco()[[0, 0, 1]]
+        per_volt = cfg.gain[0] * ads.FULL_SCALE_CODE / (cfg.vref * (1.0 + k_v * dt))   # codes per V
+        v_per_nT = fg.params["sensitivity_V_per_nT"] * fg.att
+        p = (per_volt * v_per_nT * (1.0 + fg.tempco_scale * dt))[:, None] * fg.distortion
+        q = per_volt * ((fg.offset + fg.tempco_offset * dt) * v_per_nT + fg.fe_offset)
+        return p, q
 
     def grid_hz(self):
         """The analog grid rate in Hz."""
@@ -171,8 +232,8 @@ class AnalogChain:
         else:
             bw = self.field.at(t, pos)
         b = to_sensor(q, bw)
-        if self.sc.temp_drift:
-            temp = self.sc.temp_c + self.sc.temp_drift * t / 60.0
+        if self.sc.temp_drift or self.sc.temp_profile is not None:
+            temp = self.sc.temperature(t)
             r = self.sensor.reading(b, temp)
         else:
             temp = np.full(len(t), float(self.sc.temp_c))
@@ -224,6 +285,7 @@ def simulate(sc, chunk_seconds=8.0, truth=True):
     found = {key: None for key, _ in TRUTH} if truth else {}
     buf, buf_g0, g_done = None, 0, 0
     rng_a, rng_b = (rng_a, rng_b) if sc.adc_noise else (NO_NOISE, NO_NOISE)
+    k_a, k_b = sc.vref_tempco()
     for k0 in range(0, n_total, per_chunk):
         n = min(per_chunk, n_total - k0)
         ticks0 = first + k0 * d
@@ -238,8 +300,10 @@ def simulate(sc, chunk_seconds=8.0, truth=True):
         g_done = g_last + 1
         kw = dict(first_tick=ticks0, n=n, step=step, grid_tick0=buf_g0 * step)
         vol = buf["volts"]
-        codes[k0:k0 + n, :2] = convert(vol[:, :2], None, cfg_a, rng=rng_a, **kw)
-        codes[k0:k0 + n, 2:] = convert(np.c_[vol[:, 2], np.zeros(len(vol))], buf["temp"], cfg_b, rng=rng_b, **kw)
+        codes[k0:k0 + n, :2] = convert(vol[:, :2], buf["temp"] if k_a else None, cfg_a, rng=rng_a,
+                                       vref_tempco=k_a, **kw)
+        codes[k0:k0 + n, 2:] = convert(np.c_[vol[:, 2], np.zeros(len(vol))], buf["temp"], cfg_b, rng=rng_b,
+                                       vref_tempco=k_b, **kw)
         if truth:
             idx = (ticks0 + np.arange(n) * d) // step - buf_g0        # grid sample at each DRDY
             for key, src in TRUTH:

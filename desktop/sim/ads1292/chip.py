@@ -70,11 +70,15 @@ class ADS1292:
         Conversions computed per vectorised :func:`convert` call (see
         :attr:`batch`); 1 computes each when its DRDY comes due. Any value
         gives the same codes, DRDY ticks, frames, faults and violations.
+    vref_tempco : float
+        The internal reference's drift, relative per C about 25 C (within
+        +-45e-6 [DS §6.5]; see :func:`convert`); 0 (default): none.
     """
 
     def __init__(self, chip_id=0x53, *, seed=None, fault=None, fault_rate=None,
-                 sclk_hz=1_000_000, strict=True, noise=True, batch=1):
+                 sclk_hz=1_000_000, strict=True, noise=True, batch=1, vref_tempco=0.0):
         self.chip_id = chip_id
+        self.vref_tempco = float(vref_tempco)
         self.fault, self.fault_rate = None, 0.01
         # the oscillator: own modulator ticks per nominal tick = _num / _den (clock-drift)
         self._num = self._den = 1
@@ -342,7 +346,8 @@ class ADS1292:
         m0 = self._m_next
         # everything convert() reads besides the tick and the noise rows
         key = (self._cfg_regs, self._step, self._grid_tick0, self.noise, self.fault == "clipping",
-               None if self._temp is not None else self.temperature_c, self._anchor, self._num, self._den)
+               None if self._temp is not None else self.temperature_c, self._anchor, self._num, self._den,
+               self.vref_tempco)
         c = self._cache
         if c is not None and c[0] == key and c[1] is self._volts and c[2] is self._temp \
                 and self._normals_rng is self.rng:
@@ -367,7 +372,8 @@ class ADS1292:
         temp = self._temp if self._temp is not None else self.temperature_c
         codes = convert(self._volts, temp, cfg, step=self._step,
                         rng=NO_NOISE, normals=self._peek_normals(m) if self.noise else None,
-                        grid_tick0=self._grid_tick0, clipping=self.fault == "clipping", **kw)
+                        grid_tick0=self._grid_tick0, clipping=self.fault == "clipping",
+                        vref_tempco=self.vref_tempco, **kw)
         rows = codes.tolist()                   # Python ints: a frame is built from one row
         self._cache = (key, self._volts, self._temp, m0, self._normals_used, rows) if m > n else None
         self._take_normals(n)

@@ -53,11 +53,12 @@ def sinc3_kernel(decimation, step, phase):
     return np.bincount(j, weights=taps)
 
 
-def channel_input(x, mux, channel, cfg, temp_c, ticks):
+def channel_input(x, mux, channel, cfg, temp_c, ticks, vref_scale=1.0):
     """Differential input (V) a channel sees for its MUX setting [DS §8.6.1.5].
 
     `x` is the sinc3-filtered analog input of the channel (V) and `temp_c` the
-    filtered die temperature (C), both (N,) arrays at the conversion ticks.
+    filtered die temperature (C), both (N,) arrays at the conversion ticks;
+    `vref_scale` the reference's drift (1 at 25 C), which the test signal follows.
     """
     if mux == MUX_NORMAL:
         return x
@@ -67,7 +68,7 @@ def channel_input(x, mux, channel, cfg, temp_c, ticks):
         # CH1 reads (AVDD + AVSS) / 2, CH2 DVDD / 4 (text; the table is inconsistent).
         return np.full(x.shape, (AVDD / 2) if channel == 0 else (DVDD / 4))
     if mux == MUX_TEST and cfg.int_test:
-        amp = cfg.vref / 2400.0                               # +-(VREFP - VREFN) / 2400
+        amp = cfg.vref * vref_scale / 2400.0                  # +-(VREFP - VREFN) / 2400
         if cfg.test_1hz:
             return np.where((ticks // (F_MOD // 2)) % 2 == 0, amp, -amp)
         return np.full(x.shape, amp)
@@ -75,7 +76,7 @@ def channel_input(x, mux, channel, cfg, temp_c, ticks):
 
 
 def convert(volts, temp_c, cfg, *, first_tick=None, n=None, rng, step=8, grid_tick0=0,
-            clipping=False, normals=None, ticks=None):
+            clipping=False, normals=None, ticks=None, vref_tempco=0.0):
     """Vectorised conversion results of a continuously running chip.
 
     Parameters
@@ -103,6 +104,12 @@ def convert(volts, temp_c, cfg, *, first_tick=None, n=None, rng, step=8, grid_ti
         from `rng` (which is then not used). A Generator's normals come in the
         same order however they are split into calls, so codes computed from
         rows of one larger draw equal codes computed draw by draw.
+    vref_tempco : float
+        The internal reference's temperature coefficient, relative per C
+        (|.| <= 45e-6 [DS §6.5]): VREF(T) = VREF (1 + vref_tempco (T - 25)) at
+        the die temperature of each conversion, so every channel of the chip
+        (the temperature sensor's too) reads V / VREF(T). 0: a reference that
+        does not drift (the default; codes at 25 C are the same either way).
 
     Returns
     -------
@@ -141,14 +148,18 @@ def convert(volts, temp_c, cfg, *, first_tick=None, n=None, rng, step=8, grid_ti
     if normals is None:
         normals = rng.standard_normal((n, 2))
     noise = normals * (NOISE_UV_GAIN6[min(cfg.dr, 6)] * 1e-6)
+    # the reference at each conversion's die temperature; exactly 1 at 25 C or without drift
+    vs = 1.0 + vref_tempco * (t - 25.0) if vref_tempco else 1.0
     out = np.zeros((n, 2), dtype=np.int32)
     for ch in range(2):
         if cfg.power_down[ch]:
             continue                                           # reads 0, keeps its slot [DS §8.5.1.5]
-        v = channel_input(x[:, ch], cfg.mux[ch], ch, cfg, t, ticks)
+        v = channel_input(x[:, ch], cfg.mux[ch], ch, cfg, t, ticks, vs)
         if clipping and ch == 0:
             v = v + 2.0 * cfg.vref / cfg.gain[ch]
         v = v + noise[:, ch] * noise_gain_factor(cfg.gain[ch])
+        if vref_tempco:
+            v = v / vs
         code = np.rint(v * (cfg.gain[ch] * FULL_SCALE_CODE / cfg.vref))
         out[:, ch] = np.clip(code, -(1 << 23), FULL_SCALE_CODE)  # clips at +-FS [DS §8.3.8]
     return out
