@@ -198,13 +198,15 @@ def test_faults_status_corrupt_and_bit_flips():
         chip.wait_drdy(0.01)
 
 
-@pytest.mark.parametrize("batch", [1, 512])
-def test_two_chips_on_one_bus_follow_the_shared_clock(batch):
+@pytest.mark.parametrize("batch, temp_c", [(1, 25.0), (512, 25.0), (64, 5.0)])
+def test_two_chips_on_one_bus_follow_the_shared_clock(batch, temp_c):
+    """... and each chip's reference drift away from 25 C (tests/test_sim_temperature.py)."""
     from desktop.sim.handheld import Handheld
     from desktop.sim.scenario import Scenario
-    sc = Scenario(seconds=0.3, rate=1000, motion="hand")
+    sc = Scenario(seconds=0.3, rate=1000, motion="hand", temp_c=temp_c)
     hw = Handheld(sc, t0=0.0, batch=batch)
     assert [c.batch for c in hw.chips] == [batch, batch]
+    assert [c.vref_tempco for c in hw.chips] == list(sc.vref_tempco())
     bus = hw.bus
     bus.advance(0.05)
     for i, regs in enumerate(sc.registers()):
@@ -224,11 +226,13 @@ def test_two_chips_on_one_bus_follow_the_shared_clock(batch):
     assert hw.chips[0].tick == hw.chips[1].tick
     _, _, adc_a, adc_b = sc.rngs()
     ref = [convert(c._volts, hw.grid["temp"], A.Config(c.registers), n=100, rng=rng, step=c._step,
-                     first_tick=c.start_tick + A.SETTLE_TICKS[3], grid_tick0=c._grid_tick0)
+                     first_tick=c.start_tick + A.SETTLE_TICKS[3], grid_tick0=c._grid_tick0,
+                     vref_tempco=c.vref_tempco)
            for c, rng in zip(hw.chips, (adc_a, adc_b))]
     assert np.array_equal(np.array(rows), np.concatenate(ref, axis=1))
     temp = A.volts_to_temperature(A.codes_to_volts(np.array(rows)[:, 3], 1))
-    assert abs(temp.mean() - 25.0) < 0.05
+    k_b = sc.vref_tempco()[1]    # chip B reads its sensor against its own reference
+    assert abs(temp.mean() - A.volts_to_temperature(A.temperature_volts(temp_c) / (1 + k_b * (temp_c - 25.0)))) < 0.05
 
 
 def scripted_session(chip):

@@ -1,6 +1,7 @@
 """The simulator's temperature: each ADS1292's reference drift and the scenario's temperature profile.
 
-The reference drift is on by default ("seed": each chip's coefficient drawn within
+The byte-level chips carry the same drift: tests/test_sim_ads1292.py,
+test_two_chips_on_one_bus_follow_the_shared_clock at 5 C. The reference drift is on by default ("seed": each chip's coefficient drawn within
 +-45 ppm/C [DS §6.5]) and changes nothing at 25 C, where every pinned figure of the
 other tests lives; these tests hold what it does elsewhere.
 """
@@ -9,7 +10,6 @@ import numpy as np
 import pytest
 
 from desktop.sim.ads1292 import registers as A
-from desktop.sim.ads1292.convert import convert
 from desktop.sim.scenario import Scenario, simulate
 
 
@@ -58,43 +58,6 @@ def test_codes_follow_code_model_with_each_chips_reference(temp_c):
     t = A.volts_to_temperature(A.codes_to_volts(cap["codes"][100:, 3], 1))
     assert abs(t.mean() - (A.volts_to_temperature(A.temperature_volts(temp_c) / (1 + k_b * (temp_c - 25.0)))))\
         < 0.003
-
-
-def test_byte_level_chips_carry_the_same_drift():
-    from desktop.sim.handheld import Handheld
-    sc = Scenario(seconds=0.3, rate=1000, motion="hand", temp_c=5.0, seed=2)
-    hw = Handheld(sc, t0=0.0, batch=64)
-    assert [c.vref_tempco for c in hw.chips] == list(sc.vref_tempco())
-    bus = hw.bus
-    bus.advance(0.05)
-    for i, regs in enumerate(sc.registers()):
-        bus.select(i)
-        bus.transfer([A.SDATAC, A.WREG | 1, 10] + regs[1:12] + [A.RDATAC])
-        bus.select(None)
-    bus.start = True
-    rows = []
-    for _ in range(50):
-        bus.wait_drdy(0)
-        row = []
-        for i in (0, 1):
-            bus.select(i)
-            row += A.parse_frame(bus.transfer(bytes(9)))[1]
-        bus.select(None)
-        rows.append(row)
-
-    def ref(k_scale):
-        _, _, adc_a, adc_b = sc.rngs()          # the chips' noise streams, drawn afresh
-        return np.concatenate([
-            convert(c._volts, hw.grid["temp"], A.Config(c.registers), n=50, rng=rng, step=c._step,
-                    first_tick=c.start_tick + A.SETTLE_TICKS[3], grid_tick0=c._grid_tick0,
-                    vref_tempco=k_scale * c.vref_tempco)
-            for c, rng in zip(hw.chips, (adc_a, adc_b))], axis=1)
-
-    got = np.array(rows)
-    with_drift = ref(1.0)
-    without = ref(0.0)
-    assert np.array_equal(got, with_drift)
-    assert np.abs(got - without)[:, :3].max() > 100     # 20 C from 25: hundreds of codes
 
 
 def test_temperature_profile_is_piecewise_linear_and_held_at_the_ends():
