@@ -434,6 +434,7 @@ class App:
         period_ms = 1000.0 * c["decim"] / c["rate"]
         # the previous calibration as it stands now (its temperature coefficients applied)
         prior = None if kind == calibrate.FULL else self.cal_now
+        gc.collect()   # the session's buffers want a few contiguous KB of a small heap
         self.session = calibrate.Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind)
         self.last_progress = self.board.ticks_ms()
         self.led.set(ledp.COLLECTING)

@@ -4,22 +4,25 @@
     cal.diagnostics["mode"]              # "quick", or "reshaped" when the shape moved
 
 Over a survey day what moves in a fluxgate is its offsets (sensor and front
-end drift with temperature) and the gain common to its axes (the ADC's
-reference); the shape, axis angles and gain ratios, stays. With A_prev the
-previous calibration's quadric for today's field (A = M^T M / F^2,
-shared.quadric eq. 1) the fit keeps A = s A_prev and moves s and b only: four
-parameters, which a partial rotation (wrist twists, 10-30 % of the sphere)
-determines where the nine of a full fit are not (README, "Quick
+end drift with temperature) and its gains together (the ADC's reference); the
+shape, axis angles and gain ratios, stays. With A_prev the previous
+calibration's quadric for today's field (A = M^T M / F^2, shared.quadric eq. 1)
+the fit keeps A = s A_prev and moves s and b only: four parameters. The
+instrument has two references (X and Y on one ADS1292, Z on the other:
+GAIN_GROUPS), so a gain per chip is fitted too, and kept when the likelihood
+ratio against the common gain passes chi^2(1)'s 0.1 % point (10.8). Four or
+five parameters, which a partial rotation (wrist twists, 10-30 % of the
+sphere) determines where the nine of a full fit are not (README, "Quick
 re-calibration"). The field is the previous one (same site): a change of the
-fitted radius is the common gain.
+fitted radius is a gain.
 
 Unless the data say otherwise. The nine-parameter fit with the previous
 calibration as a weak prior (shared.prior) is solved on the same sums; under
 an unchanged shape the likelihood ratio N log(RSS_quick / RSS_full) is
-chi^2 with 5 degrees of freedom, so above its 0.1 % point (20.5) the shape has
+chi^2 with 5 (or 4) degrees of freedom, so above its 0.1 % point (20.5, 18.5) the shape has
 moved and that fit is returned instead (mode "reshaped").
 
-Predicted error: the four-parameter posterior covariance (shared.solver) and
+Predicted error: the four- or five-parameter posterior covariance (shared.solver) and
 the previous calibration's own predicted error, which its shape carries into
 this one, added in quadrature.
 
@@ -32,36 +35,56 @@ to be no better raises FitError(not_better), so the previous one stays.
 import math
 
 from shared.prior import make_prior
-from shared.quadric import FRAC
+from shared.quadric import FRAC, PAIR
 from shared.solver import (DEGENERATE_COVERAGE, FitError, _State, _finish, _quantise, iterate, log_ratio, setup,
                            solve_state)
 
 NOT_BETTER = "not_better"
-# chi^2 with 5 degrees of freedom (the shape's five beyond the gain): P(> 20.52) = 0.001
-SHAPE_LR = 20.52
+# the 0.1 % points of chi^2 with 5 and 4 degrees of freedom: the shape's six less the
+# one or two gains fitted; with 1 degree of freedom: a gain per group beyond a common one
+SHAPE_LR = (20.52, 18.47)
+GAINS_LR = 10.83
 # What a day may move: offsets by tens of nT (real fluxgates ~1 nT/C), the common
 # gain by 1e-3 (the ADS1292's reference, 45 ppm/C [DS 6.5]). Wide: the data decide.
 QUICK_OFFSET_NT = 50.0
 QUICK_GAIN = 2e-3
 
 
-class _GainAndOffsets:
-    """The quick fit's four directions: the gain scales the quadric as a whole
-    (d a = c a), the offsets move freely."""
+# The gains that move together: one ADS1292 converts X and Y, the other Z, each
+# with its own reference (device/ads1292.py). Axis i's gain is group GAIN_GROUPS[i]'s.
+GAIN_GROUPS = (0, 0, 1)
 
-    @staticmethod
-    def directions(st):
-        return [[float(x) for x in st.a] + [0.0, 0.0, 0.0],
-                [0.0] * 6 + [1.0, 0.0, 0.0],
-                [0.0] * 6 + [0.0, 1.0, 0.0],
-                [0.0] * 6 + [0.0, 0.0, 1.0]]
 
-    @staticmethod
-    def apply(st, step):
-        # a (1 + c) in integers: the shape stays the previous one to the last bit
-        # whatever the float width that computed c (shared.solver's fixed point)
-        c = _quantise(step[0])
-        return [(a * c) >> FRAC for a in st.a_int], [_quantise(x) for x in step[1:]]
+class _GainsAndOffsets:
+    """The quick fit's directions: each gain group scales its axes (raw axis gains
+    D turn A into D^-1 A D^-1, so d a_ij = -(e_i + e_j) a_ij for small e), the
+    offsets move freely."""
+
+    def __init__(self, groups):
+        k = max(groups) + 1
+        # per direction, how many of each quadric term's two axes are in the group
+        self.counts = [[(groups[i] == g) + (groups[j] == g) for i, j in PAIR] for g in range(k)]
+
+    def directions(self, st):
+        out = [[float(c * x) for c, x in zip(cs, st.a)] + [0.0, 0.0, 0.0] for cs in self.counts]
+        for i in range(3):
+            row = [0.0] * 9
+            row[6 + i] = 1.0
+            out.append(row)
+        return out
+
+    def apply(self, st, step):
+        # a (1 + c) in integers, per term: the shape within each group stays the previous
+        # one to the last bit, whatever the float width that computed c (shared.solver)
+        k = len(self.counts)
+        cs = [_quantise(x) for x in step[:k]]
+        da = []
+        for m in range(6):
+            c = 0
+            for g in range(k):
+                c += self.counts[g][m] * cs[g]
+            da.append((st.a_int[m] * c) >> FRAC)
+        return da, [_quantise(x) for x in step[k:]]
 
 
 def _rms(pb, rss, field):
@@ -70,7 +93,7 @@ def _rms(pb, rss, field):
 
 
 def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175), min_samples=12,
-          max_iter=60, max_error=None, refuse_worse=True):
+          max_iter=60, max_error=None, refuse_worse=True, groups=GAIN_GROUPS):
     """Quick re-calibration from the power sums; see the module docstring."""
     if field is None:
         field = prior.field
@@ -78,12 +101,24 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
     n = pb.n
     pr = make_prior(pb, prior, field, num, kr, k_nom, shape_sigma, QUICK_OFFSET_NT, 2.0 * QUICK_GAIN)
     stale = _State(pb, pr, [_quantise(x) for x in pr.a_frame], [_quantise(x) for x in pr.f_target])
-    st, h, iterations, rejected = iterate(pb, pr, stale, num, max_iter, _GainAndOffsets)
-    dirs = _GainAndOffsets.directions(st)
+    # one common gain first; the groups' own gains only where the data ask for them
+    basis = _GainsAndOffsets((0, 0, 0))
+    st, h, iterations, rejected = iterate(pb, pr, stale, num, max_iter, basis)
+    gains_lr = 0.0
+    if max(groups) > 0:
+        split = _GainsAndOffsets(groups)
+        st2, h2, it2, rej2 = iterate(pb, pr, st, num, max_iter, split)
+        ratio = log_ratio(st.rss, st2.rss)
+        gains_lr = n * ratio if ratio is not None else 0.0
+        if gains_lr > GAINS_LR:
+            basis, st, h, iterations, rejected = split, st2, h2, iterations + it2, rejected + rej2
+    dirs = basis.directions(st)
     cal = _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, float("inf"), h, dirs)
     d = cal.diagnostics
     d["rejected"] = rejected
     d["mode"] = "quick"
+    d["gains"] = len(basis.counts)
+    d["gains_lr"] = gains_lr
     prev_error = float(prior.diagnostics.get("predicted_error") or 0.0)
     d["prior_error"] = prev_error
     d["predicted_error"] = math.sqrt(d["predicted_error"] ** 2 + prev_error ** 2)
@@ -98,7 +133,7 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
     except FitError:
         full, lr = None, 0.0
     d["shape_lr"] = lr
-    if full is not None and lr > SHAPE_LR:
+    if full is not None and lr > SHAPE_LR[len(basis.counts) - 1]:
         full.diagnostics["mode"] = "reshaped"
         full.diagnostics["shape_lr"] = lr
         cal = full

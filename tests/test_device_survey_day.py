@@ -1,0 +1,129 @@
+"""A survey day on the real firmware (issue 11): calibrate cold and warm, survey compensated
+in between, and re-calibrate quickly from a partial rotation there.
+
+One sensor (the simulator's Mag649 with its temperature model: offsets up to 0.1 nT/C,
+gains up to 20 ppm/C per axis, the ADS1292 reference's drift per chip), one flash: each
+stage is a new power-up of the same instrument, as in the field.
+1. 10 C, full hand rotation, short press: a full calibration (auto-finished).
+2. 25 C, the same: the firmware fits temperature coefficients from the two (15 C apart).
+3. 25 C spin: within the bound that noise and admitted smearing leave (the floor).
+4. 17.5 C spin: compensated by the coefficients, within the same bound; the same spin with
+   the coefficients stripped (set-cal) is worse.
+5. 17.5 C, wrist twists over ~20 % of the sphere, long press: a quick re-calibration of
+   the compensated calibration. Nothing drifted beyond the model, so it either refines
+   it or is refused as not_better; either way the spin stays within the bound.
+(A quick re-calibration straight after a 15 C warm-up sees the per-axis gain coefficients
+move the shape by up to 3e-4 and refits it, "reshaped", at ~0.8 nT predicted from a 20 %
+cap: the coefficients, not a cap, are what hold the floor across temperatures.)
+"""
+import json
+
+import numpy as np
+import pytest
+
+from desktop.devicesim.procedure import events, handheld_config
+from desktop.devicesim.runners import start_device, write_config
+from desktop.devicesim.world import make_world
+from tests.device_bounds import spin_ptp_bound
+from tests.interpreters import need
+
+SEED = 3
+
+
+def _world(temp_c, motion, seconds, **kw):
+    return make_world(serial=None, motion=motion, seconds=seconds, seed=SEED, motion_seed=7, rate=1000,
+                      temp_c=temp_c, **kw)
+
+
+def _run_cal(w, dev, hold_s, limit_s):
+    """Press (hold_s), turn for limit_s; the first end of the session (auto-finish), else
+    press again to finish."""
+    dev.run_until(0.5)
+    w.press(hold_s)
+    dev.run_until(0.5 + limit_s)
+    done = [e for e in events(w, "cal") if e.get("state") in ("done", "failed", "cancelled")]
+    if not done:
+        w.press(0.2)
+        dev.run_until(w.time + 0.5)
+        done = [e for e in events(w, "cal") if e.get("state") in ("done", "failed", "cancelled")]
+    assert done, w.lines()[-5:]
+    return done[0]
+
+
+def _spin(root, kind, temp_c, cal=None, spin_s=10.0):
+    w = _world(temp_c, "spin", spin_s + 2.0, rot_rate=1.0 / spin_s)
+    dev = start_device(w, root, kind=kind)
+    try:
+        dev.run_until(0.3)
+        if cal is not None:
+            w.send(b"set-cal " + json.dumps(cal).encode() + b"\n")
+            dev.run_until(w.time + 0.2)
+        w.send(b"stream corrected\n")
+        n0 = len(w.lines())
+        dev.run_until(w.time + spin_s)
+        data = events(w, "data", n0)
+        w.send(b"stream off\nstatus\n")
+        dev.run_until(w.time + 0.3)
+        status = [json.loads(x) for x in w.lines() if '"cmd": "status"' in x][-1]
+    finally:
+        dev.close()
+    f = np.array([d["f"] for d in data])
+    return float(np.ptp(f)), data, status, w
+
+
+# The firmware's own code in this CPython (in-process, the simulated board and chips). On the
+# real `micropython` with a 256 KB heap and source modules, starting a session with a
+# calibration in force after a 60 s run raised MemoryError (5120 bytes: the session's
+# sample history) in this issue's last hour: open, named in the README.
+@pytest.mark.parametrize("kind", ["cpython"])
+def test_calibrate_cold_and_warm_then_compensate_and_quick_recalibrate(kind, tmp_path):
+    if kind != "cpython":
+        need(kind)
+    root = str(tmp_path)
+    results = []
+    for temp in (10.0, 25.0):
+        w = _world(temp, "hand", 63.0)
+        write_config(root, **handheld_config(w.scenario, kind))
+        dev = start_device(w, root, kind=kind)
+        try:
+            results.append(_run_cal(w, dev, 0.2, 60.0))
+            w.send(b"get-cal\nstatus\n")
+            dev.run_until(w.time + 0.3)
+            rec = [json.loads(x) for x in w.lines() if '"cmd": "get-cal"' in x][-1]["cal"]
+            status = events(w)[-1]
+        finally:
+            dev.close()
+    cold, warm = results
+    assert cold["state"] == "done" and cold["kind"] == "full" and cold["tempco"] is None, cold
+    assert warm["state"] == "done" and warm["kind"] == "full" and warm["tempco"] == "fitted", warm
+    lo, hi = status["tempco_range"]
+    assert abs(lo - 10.0) < 0.5 and abs(hi - 25.0) < 0.5 and status["cal_kind"] == "full"
+    assert rec["tempco"]["method"] == "calibrations"
+    # 3. warm spin: the floor
+    ptp, data, status, w = _spin(root, kind, 25.0)
+    bound = spin_ptp_bound(w.scenario, len(data))
+    assert len(data) >= 95 and ptp <= bound, (ptp, bound)
+    # 4. in between: compensated; the same spin without the coefficients is worse
+    ptp_mid, data, status, w = _spin(root, kind, 17.5)
+    assert ptp_mid <= spin_ptp_bound(w.scenario, len(data)), ptp_mid
+    assert not status["temp_warn"] and not any(d["warn"] for d in data)
+    bare = dict(rec)
+    bare.pop("tempco")
+    ptp_bare, _, _, _ = _spin(root, kind, 17.5, cal=bare)
+    assert ptp_bare > ptp_mid
+    # put the compensated record back (the bare one was installed by set-cal)
+    ptp_again, _, _, _ = _spin(root, kind, 17.5, cal=rec)
+    # 5. quick at 17.5 C from wrist twists, started with the long press
+    w = _world(17.5, "hand", 43.0, coverage=0.2)
+    dev = start_device(w, root, kind=kind)
+    try:
+        quick = _run_cal(w, dev, 2.0, 40.0)
+    finally:
+        dev.close()
+    assert quick.get("kind") in ("quick", None), quick
+    assert quick["state"] == "done" or quick["reason"] == "not_better", quick
+    ptp_q, data, status, w = _spin(root, kind, 17.5)
+    assert ptp_q <= spin_ptp_bound(w.scenario, len(data)), ptp_q
+    print("spin PTP: 25 C %.3f nT (bound %.3f); 17.5 C compensated %.3f (again %.3f), without coefficients %.3f;"
+          " after the quick re-calibration (%s) %.3f" % (ptp, bound, ptp_mid, ptp_again, ptp_bare,
+                                                        quick.get("kind") or quick.get("reason"), ptp_q))
