@@ -80,25 +80,6 @@ def print_accuracy(rows, seeds, n):
         print("| %s | %.3f | %s |" % (label, res["floor"][1], " | ".join(cells)))
 
 
-def recalibration(seeds, n):
-    """A day later, offsets drifted ~3 nT, only a 10 % cap turned: the previous-calibration prior."""
-    res = {"stale": [], "cap alone": [], "cap + previous": []}
-    for seed in range(seeds):
-        rng = np.random.default_rng(seed)
-        sensor = Sensor.random(rng, 1.0, 0.005, 1000.0, 1.0)
-        old = fit_array(sensor.measure(FIELD * directions("tumble", rng, n), rng), field=FIELD)
-        sensor.offset = sensor.offset + rng.normal(0.0, 3.0, 3)
-        sphere = FIELD * directions("uniform", rng, 20000) @ sensor.distortion.T + sensor.offset
-        cap = sensor.measure(FIELD * directions("cap", rng, n // 2, 0.1), rng)
-        res["stale"].append(rms(magnitudes(old, sphere) - FIELD))
-        res["cap alone"].append(rms(magnitudes(fit_array(cap, field=FIELD), sphere) - FIELD))
-        res["cap + previous"].append(rms(magnitudes(fit_array(cap, field=FIELD, prior=old), sphere) - FIELD))
-    print("\n### Quick re-calibration: 10 %% cap, sigma = 1 nT, %d samples (full-sphere error, nT; mean / worst of %d)\n" % (n // 2, seeds))
-    print("| previous calibration, stale | 10 % cap alone | 10 % cap + `solve(prior=previous)` |")
-    print("|---|---|---|")
-    print("| " + " | ".join("%.2f / %.2f" % (np.mean(v), np.max(v)) for v in res.values()) + " |")
-
-
 def micropython_cost(n, repeats=5):
     exe = micropython_exe()
     if exe is None:
@@ -156,7 +137,6 @@ def main(argv=None):
     args = p.parse_args(argv)
     t0 = time.time()
     print_accuracy(accuracy(args.seeds, args.samples), args.seeds, args.samples)
-    recalibration(max(args.seeds, 5), args.samples)
     micropython_cost(5000, args.repeats)
     print("\n(%.0f s; command: python -m desktop.bench --seeds %d --samples %d --repeats %d)"
           % (time.time() - t0, args.seeds, args.samples, args.repeats))
