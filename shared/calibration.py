@@ -6,6 +6,7 @@
     cal.magnitude(x, y, z)    # -> |h_c|
     d = cal.to_dict()         # {"version": 1, "matrix": 3x3 row-major, "offset": 3, "field": nT, ...}
     cal = Calibration.from_dict(d)   # validated deeply: ValueError naming the problem
+    cal.at_temperature(t)     # with a "tempco": the calibration at t C (docs/temperature.md)
 
 ``offset`` is in the raw input unit (ADC codes, or nT for a file), ``matrix``
 maps that unit to the output unit, ``field`` is the magnitude the calibration
@@ -17,6 +18,17 @@ nested ones included, against bounds a magnetometer can have. A record that
 passes cannot make the survey raise later (docs/reliability.md, row "set-cal
 bricks"). The constructor, used by the fit itself, checks only what the
 arithmetic needs.
+
+Temperature coefficients (optional key "tempco", fitted by shared/tempco.py):
+{"t0_c": C, "offset_per_c": [3] input units per C, "gain_per_c": [3] relative
+gain change per C of each raw axis, "range_c": [lo, hi] C measured over,
+"sources": int, "method": "calibrations" | "warmup"}. With tau = T - t0_c the
+sensor's raw reading has offset b + offset_per_c tau and raw axis i gain
+(1 + gain_per_c[i] tau) times its gain at t0_c, so
+
+    h_c = M diag(1 / (1 + gain_per_c tau)) (h - b - offset_per_c tau)
+
+(at_temperature). The matrix and offset of the record are those at t0_c.
 """
 
 import math
@@ -39,6 +51,15 @@ _TEXT_MAX = 256
 _META_NUMBERS = ("temperature_c", "time", "uptime_ms", "rate", "n")
 _META_TEXT = ("firmware", "source", "units", "method", "time_iso")
 _DIAG_NUMBERS = ("n", "rms", "observability", "predicted_error", "iterations", "radius", "rejected")
+# tempco bounds. Offsets: the ADC's whole range (OFFSET_LIMIT) over 1000 C. In codes of the
+# handheld (0.0144 nT) that is 121 nT/C, a hundred times a real fluxgate's ~1 nT/C; in nT
+# (files) 8,400 nT/C, as loose as OFFSET_LIMIT is there. Gains: 1e-3 per C is 50 times the
+# simulator's fluxgate bound (20 ppm/C) and 20 times the ADS1292's reference (45 ppm/C), and
+# keeps 1 + gain tau >= 0.81 across TEMP_RANGE_C, so the model never reverses an axis.
+TEMPCO_OFFSET_LIMIT = OFFSET_LIMIT / 1000.0
+TEMPCO_GAIN_LIMIT = 1e-3
+TEMPCO_METHODS = ("calibrations", "warmup")
+_TEMPCO_KEYS = ("t0_c", "offset_per_c", "gain_per_c", "range_c", "sources", "method")
 
 
 def _number(value, what):
@@ -57,8 +78,59 @@ def _vector(value, what):
     return [_number(v, "%s[%d]" % (what, i)) for i, v in enumerate(value)]
 
 
+def _temperature(value, what):
+    t = _number(value, what)
+    if not TEMP_RANGE_C[0] <= t <= TEMP_RANGE_C[1]:
+        raise ValueError("%s %r outside %r..%r C" % (what, t, TEMP_RANGE_C[0], TEMP_RANGE_C[1]))
+    return t
+
+
+def check_tempco(tc):
+    """The tempco record tc validated deeply, as a new dict of floats and lists; ValueError
+    naming the first problem. Keys besides the six known ones may carry JSON scalars
+    (as meta's may)."""
+    if not isinstance(tc, dict):
+        raise ValueError("tempco must be a JSON object")
+    for k in _TEMPCO_KEYS:
+        if k not in tc:
+            raise ValueError("tempco has no %r" % k)
+    out = {}
+    for k in tc:
+        if k not in _TEMPCO_KEYS:
+            if not _scalar(tc[k]):
+                raise ValueError("tempco.%s: a number, short text, true/false or null expected"
+                                 % (_short(k)[1:-1] if isinstance(k, str) else _short(k)))
+            out[k] = tc[k]
+    out["t0_c"] = _temperature(tc["t0_c"], "tempco.t0_c")
+    o = _vector(tc["offset_per_c"], "tempco.offset_per_c")
+    g = _vector(tc["gain_per_c"], "tempco.gain_per_c")
+    for i in range(3):
+        if abs(o[i]) > TEMPCO_OFFSET_LIMIT:
+            raise ValueError("tempco.offset_per_c[%d] %.6g beyond +-%.6g per C" % (i, o[i], TEMPCO_OFFSET_LIMIT))
+        if abs(g[i]) > TEMPCO_GAIN_LIMIT:
+            raise ValueError("tempco.gain_per_c[%d] %.6g beyond +-%g per C" % (i, g[i], TEMPCO_GAIN_LIMIT))
+    out["offset_per_c"] = o
+    out["gain_per_c"] = g
+    r = tc["range_c"]
+    if not isinstance(r, (list, tuple)) or len(r) != 2:
+        raise ValueError("tempco.range_c must be [lo, hi] in C")
+    lo = _temperature(r[0], "tempco.range_c[0]")
+    hi = _temperature(r[1], "tempco.range_c[1]")
+    if lo > hi:
+        raise ValueError("tempco.range_c [%r, %r]: lo above hi" % (lo, hi))
+    out["range_c"] = [lo, hi]
+    n = tc["sources"]
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1000000:
+        raise ValueError("tempco.sources must be an integer 1..1000000")
+    out["sources"] = n
+    if tc["method"] not in TEMPCO_METHODS:
+        raise ValueError("tempco.method must be one of %s" % ", ".join(TEMPCO_METHODS))
+    out["method"] = tc["method"]
+    return out
+
+
 class Calibration:
-    def __init__(self, matrix, offset, field, diagnostics=None, meta=None):
+    def __init__(self, matrix, offset, field, diagnostics=None, meta=None, tempco=None):
         if not isinstance(matrix, (list, tuple)) or len(matrix) != 3:
             raise ValueError("matrix must be 3 rows of 3 numbers")
         self.matrix = [_vector(row, "matrix[%d]" % i) for i, row in enumerate(matrix)]
@@ -77,6 +149,8 @@ class Calibration:
             raise ValueError("matrix must have a positive determinant")
         self.diagnostics = dict(diagnostics) if diagnostics else {}
         self.meta = dict(meta) if meta else {}
+        # temperature coefficients (module docstring), validated whole, or None
+        self.tempco = None if tempco is None else check_tempco(tempco)
         # The offset as an integer and a fraction (|frac| <= 0.5, exact): an integer
         # input (ADC codes, boxcar sums) has the integer part subtracted in integer
         # arithmetic, so no code of several million becomes a float before it is
@@ -108,16 +182,56 @@ class Calibration:
         A fit on integers n = round(h / unit) gives h_c = M (n - b); in terms of h
         that is (M / unit)(h - b * unit).
         """
+        tc = self.tempco
+        if tc is not None:
+            tc = dict(tc)
+            tc["offset_per_c"] = [v * unit for v in tc["offset_per_c"]]
         return Calibration(
             [[v / unit for v in row] for row in self.matrix],
             [v * unit for v in self.offset],
             self.field,
             self.diagnostics,
             self.meta,
+            tc,
         )
 
+    def at_temperature(self, temp_c):
+        """The calibration at temp_c (C) from the tempco (self without one): no tempco,
+        meta.temperature_c = temp_c.
+
+        M(T) = M diag(1 / (1 + g tau)), b(T) = b + o tau, tau = temp_c - t0_c. The
+        offset's integer part stays the record's; the drift moves only the small part
+        (a 30-bit float cannot hold an offset of millions of codes to a fraction).
+        About 40 float operations: cheap at every temperature update.
+        """
+        tc = self.tempco
+        if tc is None:
+            return self
+        c = self._drifted(tc["offset_per_c"], tc["gain_per_c"], temp_c - tc["t0_c"])
+        c.meta["temperature_c"] = temp_c
+        return c
+
+    def _drifted(self, offset_per_c, gain_per_c, tau):
+        """This calibration (no tempco) after a drift of tau C: at_temperature's model."""
+        g = gain_per_c
+        d0 = 1.0 / (1.0 + g[0] * tau)
+        d1 = 1.0 / (1.0 + g[1] * tau)
+        d2 = 1.0 / (1.0 + g[2] * tau)
+        c = Calibration([[row[0] * d0, row[1] * d1, row[2] * d2] for row in self.matrix], self.offset,
+                        self.field, self.diagnostics, self.meta)
+        bi = self._b_int
+        c._b_int = list(bi)
+        c._b_frac = [self._b_frac[i] + offset_per_c[i] * tau for i in range(3)]
+        c.offset = [bi[i] + c._b_frac[i] for i in range(3)]
+        return c
+
+    def tempco_in_range(self, temp_c):
+        """True if the tempco was measured over a range that holds temp_c (False: none)."""
+        tc = self.tempco
+        return tc is not None and tc["range_c"][0] <= temp_c <= tc["range_c"][1]
+
     def to_dict(self):
-        return {
+        d = {
             "version": FORMAT_VERSION,
             "matrix": [list(row) for row in self.matrix],
             "offset": list(self.offset),
@@ -125,6 +239,12 @@ class Calibration:
             "diagnostics": dict(self.diagnostics),
             "meta": dict(self.meta),
         }
+        if self.tempco is not None:
+            tc = dict(self.tempco)
+            for k in ("offset_per_c", "gain_per_c", "range_c"):
+                tc[k] = list(tc[k])
+            d["tempco"] = tc
+        return d
 
     @classmethod
     def from_dict(cls, d):
@@ -143,7 +263,7 @@ class Calibration:
             raise ValueError("diagnostics and meta must be JSON objects")
         _check_fields(meta, "meta", _META_NUMBERS, _META_TEXT)
         _check_fields(diagnostics, "diagnostics", _DIAG_NUMBERS, ())
-        cal = cls(d["matrix"], d["offset"], d["field"], diagnostics, meta)
+        cal = cls(d["matrix"], d["offset"], d["field"], diagnostics, meta, d.get("tempco"))
         problem = plausibility_problem(cal)
         if problem:
             raise ValueError(problem)
