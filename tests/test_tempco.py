@@ -21,10 +21,9 @@ from desktop.methods import fit_array, magnitudes
 from desktop.sim.instrument import FIELD_NT, FRONT_END, NT_PER_CODE
 from desktop.sim.points import cap_directions, uniform_directions
 from desktop.sim.sensor import Fluxgate, Sensor
-from shared.calibration import TEMPCO_GAIN_LIMIT, TEMPCO_OFFSET_LIMIT, Calibration
-from shared.fit import EllipsoidFit
-from shared.moments import ORDER
 from shared import tempco as T
+from shared.calibration import TEMPCO_GAIN_LIMIT, TEMPCO_OFFSET_LIMIT, Calibration
+from shared.moments import ORDER
 from tests.interpreters import INTERPRETERS, float_eps, need
 
 F = 48000.0
@@ -356,7 +355,7 @@ def test_with_one_full_segment_the_gain_coefficient_is_the_common_one():
     """Only the first 6 % of the warm-up covers the sphere: one full segment, so no per-axis
     gain lines; every segment's mean gain makes a common coefficient, and the record says so
     (how little that compensates: docs/temperature.md, what is not reached)."""
-    fg, w, cal = capped_warmup(1 / 16, 0.3)
+    _, w, cal = capped_warmup(1 / 16, 0.3)
     tc = cal.tempco
     assert [s["kind"] for s in w.segments].count("full") == 1
     assert tc["gains"] == "common" and tc["full_segments"] == 1

@@ -9,8 +9,8 @@ import json
 import sys
 
 sys.path.insert(0, sys.argv[2])
-from shared.calibration import Calibration  # noqa: E402
-from shared.tempco import WarmupFit, fit_tempco  # noqa: E402
+from shared.calibration import Calibration
+from shared.tempco import WarmupFit, fit_tempco
 
 
 def reprs(tc):
