@@ -68,6 +68,14 @@ class EllipsoidFit:
         self._span = 0                    #   0 <= (v + bias) < span = 2 * bias
         self._room = 0                    # samples the packs take before unpacking
 
+    @classmethod
+    def from_sums(cls, sums):
+        """An accumulator holding the 35 power sums `sums` (shared.moments.ORDER): moved,
+        merged or stored sums solved as if their samples had been added."""
+        f = cls()
+        f._s = list(sums)
+        return f
+
     @property
     def n(self):
         """Number of samples accumulated."""

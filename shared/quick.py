@@ -47,6 +47,9 @@ GAINS_LR = 10.83
 # What a day may move: offsets by tens of nT (real fluxgates ~1 nT/C), the common
 # gain by 1e-3 (the ADS1292's reference, 45 ppm/C [DS 6.5]). Wide: the data decide.
 QUICK_OFFSET_NT = 50.0
+# rms turn (rad) of the samples' directions below which nothing is determined: a
+# steady instrument's noise cluster, not a rotation (a 1 % cap is ~0.1)
+MIN_TURN = 0.02
 QUICK_GAIN = 2e-3
 
 
@@ -100,6 +103,14 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
     pb, k_nom, kr, observability = setup(sums, field, num, scale, min_samples)
     n = pb.n
     pr = make_prior(pb, prior, field, num, kr, k_nom, shape_sigma, QUICK_OFFSET_NT, 2.0 * QUICK_GAIN)
+    # the samples must have turned: their spread against the radius (both in the frame)
+    top = 0.0
+    for i in range(3):
+        top = max(top, float(pb.cov[i][i]))
+    turn = math.sqrt(top * (pr.a_frame[0] + pr.a_frame[1] + pr.a_frame[2]) / 3.0)
+    if not turn >= MIN_TURN:
+        raise FitError(DEGENERATE_COVERAGE, "the samples turned by %.1f degrees rms: turn the instrument"
+                       % math.degrees(turn))
     stale = _State(pb, pr, [_quantise(x) for x in pr.a_frame], [_quantise(x) for x in pr.f_target])
     # one common gain first; the groups' own gains only where the data ask for them
     basis = _GainsAndOffsets((0, 0, 0))

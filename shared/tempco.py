@@ -369,9 +369,7 @@ def _fixed(v):
 
 def _solve_sums(sums, **kw):
     """EllipsoidFit.solve on given power sums (its whole state: the 35 sums, packs empty)."""
-    f = EllipsoidFit()
-    f._s = list(sums)
-    return f.solve(**kw)
+    return EllipsoidFit.from_sums(sums).solve(**kw)
 
 
 class WarmupFit:

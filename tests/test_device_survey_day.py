@@ -71,11 +71,8 @@ def _spin(root, kind, temp_c, cal=None, spin_s=10.0):
     return float(np.ptp(f)), data, status, w
 
 
-# The firmware's own code in this CPython (in-process, the simulated board and chips). On the
-# real `micropython` with a 256 KB heap and source modules, starting a session with a
-# calibration in force after a 60 s run raised MemoryError (5120 bytes: the session's
-# sample history) in this last hour: open, named in the README.
-@pytest.mark.parametrize("kind", ["cpython"])
+# In this CPython (in-process) and on the real `micropython` (a board's heap: runners.heap_for)
+@pytest.mark.parametrize("kind", ["cpython", "micropython"])
 def test_calibrate_cold_and_warm_then_compensate_and_quick_recalibrate(kind, tmp_path):
     if kind != "cpython":
         need(kind)

@@ -32,6 +32,16 @@ from desktop.firmware.image import build_image
 from desktop.firmware.interpreters import interpreter as interpreter_path
 
 HEAP = "256K"   # an rp2040 gives MicroPython ~200 KB of heap; a little slack for the sim link
+# The 64-bit unix builds (micropython, micropython-float32) double every pointer: the same
+# firmware calibrating takes 161 KB there against 111 KB on a 32-bit build (python -m
+# desktop.bench.heap), so the board's ~200 KB is ~290 KB here; a little slack as above.
+HEAP_64 = "320K"
+WORD_64 = ("micropython", "micropython-float32")
+
+
+def heap_for(interpreter, heap=None):
+    """The heap a simulated board gets: as asked, else by the interpreter's word size."""
+    return heap or (HEAP_64 if interpreter in WORD_64 else HEAP)
 STAND_INS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "stand-ins")
 
 
@@ -155,7 +165,7 @@ class MicroPythonDevice(_ChildDevice):
 
     kind = "micropython"
 
-    def __init__(self, world, root, interpreter="micropython", heap=HEAP, lock_heap_in_isr=True, polled=False,
+    def __init__(self, world, root, interpreter="micropython", heap=None, lock_heap_in_isr=True, polled=False,
                  costs=COSTS_S):
         exe = interpreter_path(interpreter)
         if exe is None:
@@ -166,7 +176,7 @@ class MicroPythonDevice(_ChildDevice):
         lib = build_image(os.path.join(root, "lib"), runtime="sim", compiled=not interpreter.startswith("circuitpython"))
         boot = ("import sys\nsys.path[:0] = [%r]\nimport sim_main\nsim_main.run(%r, %r, %r, %r)\n"
                 % (lib, flash_dir(root), bool(lock_heap_in_isr), bool(polled), costs_us(costs)))
-        self.proc = subprocess.Popen([exe, "-X", "heapsize=" + heap, "-c", boot], stdin=subprocess.PIPE,
+        self.proc = subprocess.Popen([exe, "-X", "heapsize=" + heap_for(interpreter, heap), "-c", boot], stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, stderr=self.errfile, bufsize=0)
         self._fd = self.proc.stdout.fileno()
         self._ahead = b""       # bytes of the firmware's next messages, read with an earlier one
@@ -247,7 +257,7 @@ class BoardDevice(_ChildDevice):
 
     kind = "board"
 
-    def __init__(self, world, root, interpreter="micropython-float32", heap=HEAP, program=None):
+    def __init__(self, world, root, interpreter="micropython-float32", heap=None, program=None):
         exe = interpreter_path(interpreter)
         if exe is None:
             raise FileNotFoundError("no %s executable (python -m desktop.firmware.interpreters list)" % interpreter)
@@ -263,7 +273,7 @@ class BoardDevice(_ChildDevice):
         self.errfile = open(os.path.join(root, "micropython.stderr"), "w+b")
         # program: what runs instead of power-on (a test's snippet on the stand-ins)
         program = program or "import simboard\nsimboard.power_on(%r)\n" % self.runtime
-        self.proc = subprocess.Popen([exe, "-X", "heapsize=" + heap, "-c", program],
+        self.proc = subprocess.Popen([exe, "-X", "heapsize=" + heap_for(interpreter, heap), "-c", program],
                                      cwd=fs, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      stderr=self.errfile, pass_fds=(to_fw, from_fw), bufsize=0)
         os.close(to_fw)

@@ -34,7 +34,7 @@ import numpy as np
 from desktop.devicesim.link_host import HostLink
 from desktop.devicesim.procedure import handheld_config
 from desktop.devicesim.realtime import Pacer
-from desktop.devicesim.runners import HEAP, board_env, board_rom
+from desktop.devicesim.runners import board_env, board_rom, heap_for
 from desktop.devicesim.virtual_board import VirtualBoard
 from desktop.devicesim.world import World
 from desktop.firmware.interpreters import interpreter
@@ -108,7 +108,7 @@ class Hands:
 
 
 class VirtualHandheld(VirtualBoard):
-    def __init__(self, flash, runtime="micropython", sensor="mag649", seed=0, motion_seed=1, heap=HEAP,
+    def __init__(self, flash, runtime="micropython", sensor="mag649", seed=0, motion_seed=1, heap=None,
                  speed=1.0, on_behind=None):
         if runtime not in RUNTIMES:
             raise ValueError("unknown runtime %r (one of %s)" % (runtime, ", ".join(RUNTIMES)))
@@ -117,7 +117,7 @@ class VirtualHandheld(VirtualBoard):
             raise FileNotFoundError("%s is not built: make interpreters" % runtime)
         super().__init__(flash, exe=exe)
         self.runtime = "circuitpython" if runtime == "circuitpython" else "micropython"
-        self.heap = heap
+        self.heap = heap_for(runtime, heap)
         self.speed = speed
         self.on_behind = on_behind
         self.world, self.operator = live_world(sensor, seed, motion_seed)
