@@ -50,6 +50,9 @@ _SAFE_AFTER_ERRORS = 50  # passes in a row failing with a calibration applied: d
 # re-apply the temperature coefficients when the die moved this much: at 20 ppm/C and
 # 1 nT/C a step of 0.05 nT at 48,000 nT, below the noise
 _TEMP_STEP_C = 0.05
+# the coefficients hold a little beyond the temperatures they were measured at (each a
+# calibration's mean die reading): warn only this far outside their range
+_RANGE_MARGIN_C = 1.0
 
 
 class App:
@@ -394,7 +397,7 @@ class App:
         if cal is not None and self.cal.tempco is not None:
             # compensated: a warning only outside the range the coefficients were measured over
             lo, hi = self.cal.tempco["range_c"]
-            warn = not self.cal.tempco_in_range(temp)
+            warn = temp < lo - _RANGE_MARGIN_C or temp > hi + _RANGE_MARGIN_C
             if warn:
                 msg = "temperature %.1f C outside the compensated %.1f..%.1f C" % (temp, lo, hi)
         elif cal is not None:

@@ -7,22 +7,23 @@ Over a survey day what moves in a fluxgate is its offsets (sensor and front
 end drift with temperature) and its gains together (the ADC's reference); the
 shape, axis angles and gain ratios, stays. With A_prev the previous
 calibration's quadric for today's field (A = M^T M / F^2, shared.quadric eq. 1)
-the fit keeps A = s A_prev and moves s and b only: four parameters. The
-instrument has two references (X and Y on one ADS1292, Z on the other:
-GAIN_GROUPS), so a gain per chip is fitted too, and kept when the likelihood
-ratio against the common gain passes chi^2(1)'s 0.1 % point (10.8). Four or
-five parameters, which a partial rotation (wrist twists, 10-30 % of the
-sphere) determines where the nine of a full fit are not (README, "Quick
-re-calibration"). The field is the previous one (same site): a change of the
-fitted radius is a gain.
+the fit keeps A = s A_prev and moves s and b only: four parameters. Gains
+that move apart are tried next, each kept only when the likelihood ratio
+against the simpler model passes chi^2's 0.1 % point: one per ADS1292 (X and Y
+on one chip, Z on the other, each with its own reference) and one per axis
+(the fluxgate's own gain coefficients): GAIN_MODELS. Four to six parameters,
+which a partial rotation (wrist twists, 10-30 % of the sphere) determines
+where the nine of a full fit are not (README, "Quick re-calibration"). The
+field is the previous one (same site): a change of the fitted radius is a
+gain.
 
 Unless the data say otherwise. The nine-parameter fit with the previous
 calibration as a weak prior (shared.prior) is solved on the same sums; under
 an unchanged shape the likelihood ratio N log(RSS_quick / RSS_full) is
-chi^2 with 5 (or 4) degrees of freedom, so above its 0.1 % point (20.5, 18.5) the shape has
+chi^2 with 6 less the gains' degrees of freedom, so above its 0.1 % point the shape has
 moved and that fit is returned instead (mode "reshaped").
 
-Predicted error: the four- or five-parameter posterior covariance (shared.solver) and
+Predicted error: the posterior covariance of the parameters fitted (shared.solver) and
 the previous calibration's own predicted error, which its shape carries into
 this one, added in quadrature.
 
@@ -40,10 +41,9 @@ from shared.solver import (DEGENERATE_COVERAGE, FitError, _State, _finish, _quan
                            solve_state)
 
 NOT_BETTER = "not_better"
-# the 0.1 % points of chi^2 with 5 and 4 degrees of freedom: the shape's six less the
-# one or two gains fitted; with 1 degree of freedom: a gain per group beyond a common one
-SHAPE_LR = (20.52, 18.47)
-GAINS_LR = 10.83
+# the 0.1 % points of chi^2 with 0..5 degrees of freedom: a model with more gains against
+# one with fewer; the full fit's shape (six) against the gains fitted
+CHI2_001 = (0.0, 10.83, 13.82, 16.27, 18.47, 20.52)
 # What a day may move: offsets by tens of nT (real fluxgates ~1 nT/C), the common
 # gain by 1e-3 (the ADS1292's reference, 45 ppm/C [DS 6.5]). Wide: the data decide.
 QUICK_OFFSET_NT = 50.0
@@ -53,9 +53,11 @@ MIN_TURN = 0.02
 QUICK_GAIN = 2e-3
 
 
-# The gains that move together: one ADS1292 converts X and Y, the other Z, each
-# with its own reference (device/ads1292.py). Axis i's gain is group GAIN_GROUPS[i]'s.
-GAIN_GROUPS = (0, 0, 1)
+# The gains that may move, nested, each tried only when the one before it is not enough:
+# one common gain; one per ADS1292 (X and Y on one chip, Z on the other, each with its own
+# reference, device/ads1292.py); one per axis (a fluxgate's own gain coefficients, up to
+# 20 ppm/C per axis in the simulator's model). Axis i's gain is group groups[i]'s.
+GAIN_MODELS = ((0, 0, 0), (0, 0, 1), (0, 1, 2))
 
 
 class _GainsAndOffsets:
@@ -96,7 +98,7 @@ def _rms(pb, rss, field):
 
 
 def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175), min_samples=12,
-          max_iter=60, max_error=None, refuse_worse=True, groups=GAIN_GROUPS):
+          max_iter=60, max_error=None, refuse_worse=True, models=GAIN_MODELS):
     """Quick re-calibration from the power sums; see the module docstring."""
     if field is None:
         field = prior.field
@@ -112,23 +114,25 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
         raise FitError(DEGENERATE_COVERAGE, "the samples turned by %.1f degrees rms: turn the instrument"
                        % math.degrees(turn))
     stale = _State(pb, pr, [_quantise(x) for x in pr.a_frame], [_quantise(x) for x in pr.f_target])
-    # one common gain first; the groups' own gains only where the data ask for them
-    basis = _GainsAndOffsets((0, 0, 0))
+    # one common gain first; a gain per ADC, then per axis, only where the data ask for them
+    basis = _GainsAndOffsets(models[0])
     st, h, iterations, rejected = iterate(pb, pr, stale, num, max_iter, basis)
     gains_lr = 0.0
-    if max(groups) > 0:
-        split = _GainsAndOffsets(groups)
-        st2, h2, it2, rej2 = iterate(pb, pr, st, num, max_iter, split)
+    for groups in models[1:]:
+        more = _GainsAndOffsets(groups)
+        st2, h2, it2, rej2 = iterate(pb, pr, st, num, max_iter, more)
         ratio = log_ratio(st.rss, st2.rss)
-        gains_lr = n * ratio if ratio is not None else 0.0
-        if gains_lr > GAINS_LR:
-            basis, st, h, iterations, rejected = split, st2, h2, iterations + it2, rejected + rej2
+        lr = n * ratio if ratio is not None else 0.0
+        iterations += it2
+        rejected += rej2
+        if lr > CHI2_001[len(more.counts) - len(basis.counts)]:
+            basis, st, h, gains_lr = more, st2, h2, lr
     dirs = basis.directions(st)
     cal = _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, float("inf"), h, dirs)
     d = cal.diagnostics
     d["rejected"] = rejected
     d["mode"] = "quick"
-    d["gains"] = len(basis.counts)
+    d["gains"] = len(basis.counts)   # 1 common, 2 per chip, 3 per axis
     d["gains_lr"] = gains_lr
     prev_error = float(prior.diagnostics.get("predicted_error") or 0.0)
     d["prior_error"] = prev_error
@@ -144,7 +148,7 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
     except FitError:
         full, lr = None, 0.0
     d["shape_lr"] = lr
-    if full is not None and lr > SHAPE_LR[len(basis.counts) - 1]:
+    if full is not None and lr > CHI2_001[6 - len(basis.counts)]:
         full.diagnostics["mode"] = "reshaped"
         full.diagnostics["shape_lr"] = lr
         cal = full
