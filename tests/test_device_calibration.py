@@ -251,3 +251,21 @@ def test_cpython_and_each_interpreter_run_the_same_run(name, tmp_path):
         assert a == b
     else:
         _same(a, b, float_eps(name))
+
+
+def test_start_cal_kinds_are_checked(tmp_path):
+    """start-cal quick needs a calibration in force; an unknown kind is a bad argument;
+    the reply says which kind runs (docs/protocol.md, calibration kinds)."""
+    w, dev = _device(tmp_path, "hand", 5.0)
+    try:
+        for line, code in ((b"start-cal quick\n", "no_calibration"), (b"start-cal sideways\n", "bad_argument")):
+            w.send(line)
+            dev.run_until(w.time + 0.2)
+            reply = json.loads(w.lines()[-1])
+            assert reply["ok"] is False and reply["error"] == code, reply
+        w.send(b"start-cal\n")
+        dev.run_until(w.time + 0.2)
+        reply = [json.loads(x) for x in w.lines() if '"cmd": "start-cal"' in x][-1]
+        assert reply["ok"] and reply["kind"] == "full"      # nothing in force: auto is a full one
+    finally:
+        dev.close()

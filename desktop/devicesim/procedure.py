@@ -24,11 +24,15 @@ from desktop.firmware.files import import_device
 
 def handheld_config(scenario, kind="cpython"):
     """The config.json keys that describe the simulated handheld (what a user sets once for
-    their board): the front end's scale_x/y/z, from its nominal nT per code, and, for a
+    their board): the front end's scale_x/y/z, from its nominal nT per code, the sensor's
+    bandwidth (the rate gate follows it), and, for a
     CircuitPython board, the pins by their board names (its HAL looks them up in `board`;
     the wiring is config.py's defaults, GPIO numbers)."""
+    from desktop.sim.sensor import PRESETS
     k = scenario.nt_per_code()
-    cfg = {"scale_x": float(k[0]), "scale_y": float(k[1]), "scale_z": float(k[2])}
+    bw = scenario.bandwidth if scenario.bandwidth != "preset" else PRESETS[scenario.sensor]["bandwidth_hz"]
+    cfg = {"scale_x": float(k[0]), "scale_y": float(k[1]), "scale_z": float(k[2]),
+           "sensor_bandwidth_hz": float(bw or 100000.0)}
     if kind.startswith("board:circuitpython"):
         schema = import_device("config").SCHEMA
         cfg.update({key: "GP%d" % spec[0] for key, spec in schema.items() if spec[1] == "pin"})
