@@ -75,6 +75,8 @@ _PROVISIONAL_ITER = 1
 _GATE_BITS = 14      # gate/cell arithmetic: |v| < 2**14, so |v|^2 sums stay < 2**30
 _G_SHIFT = 16        # rate gate: d^2 > (r^2 >> 16) * round(angle^2 * 2**16)
 _MAX_STRIDE = 64     # rate gate baseline, samples (0.64 s at 100 samples/s)
+_MIN_PAIRS = 50      # consecutive residual pairs before their correlation counts
+_MAX_RHO = 0.999     # widening at most sqrt(1999) ~ 45x
 
 
 def gate_dps(cfg):
@@ -251,6 +253,44 @@ class Session:
             self._hn -= 1
             self.removed += 1
 
+    def residual_rho(self, cal):
+        """Lag-1 correlation of the residuals |h_c| - F of consecutive accepted samples among
+        the last _HIST (the removal history), against the final fit; None with too few pairs.
+
+        The fit's predicted error assumes independent residuals. A sensor that lags the
+        turn (a bandwidth set too high for it), a field that wanders or a flexing mount
+        leave residuals that follow each other from sample to sample; with their lag-1
+        correlation rho (AR(1)) the samples count as N (1 - rho) / (1 + rho), and finish()
+        widens the predicted error by sqrt((1 + rho) / (1 - rho)). Against the final fit,
+        not a provisional one: a provisional fit's own error, smooth in orientation, would
+        read as correlation when the turn is slow.
+        """
+        h = self._hist
+        n = self._hn
+        first = (self._hi - n) % _HIST
+        prev_i = -2
+        prev_r = 0.0
+        pairs = 0
+        s = ss = s1 = 0.0
+        for k in range(n):
+            j = ((first + k) % _HIST) * 5
+            r = cal.magnitude(h[j], h[j + 1], h[j + 2]) - cal.field
+            i = h[j + 3]
+            if i == prev_i + 1:
+                pairs += 1
+                s += r + prev_r
+                ss += r * r + prev_r * prev_r
+                s1 += r * prev_r
+            prev_i = i
+            prev_r = r
+        if pairs < _MIN_PAIRS:
+            return None, pairs
+        m = s / (2 * pairs)
+        var = ss / (2 * pairs) - m * m
+        if not var > 0.0:
+            return None, pairs
+        return (s1 / pairs - m * m) / var, pairs
+
     def add_temperature(self, celsius):
         self.temp_sum += celsius
         self.temp_n += 1
@@ -339,6 +379,7 @@ class Session:
             cal = self._solve(final=True)
         except FitError as e:
             return self._fail_fast(e.reason, str(e))
+        self._widen(cal)
         problem = self.check(cal)
         if problem:
             return self._fail_fast(problem[0], problem[1])
@@ -349,6 +390,18 @@ class Session:
         if self.temp_n:
             code_cal.meta["temperature_c"] = round(self.temp_sum / self.temp_n, 2)
         return code_cal, None, None
+
+    def _widen(self, cal):
+        # residuals correlated beyond chance (rho > 2 / sqrt(pairs)): fewer independent samples
+        d = cal.diagnostics
+        rho, pairs = self.residual_rho(cal)
+        if rho is None:
+            return
+        d["residual_rho"] = round(rho, 4)
+        if rho > 2.0 / math.sqrt(pairs) and d.get("predicted_error") is not None:
+            rho = min(rho, _MAX_RHO)
+            d["predicted_error_white"] = d["predicted_error"]
+            d["predicted_error"] = d["predicted_error"] * math.sqrt((1.0 + rho) / (1.0 - rho))
 
     def _fail_fast(self, reason, message):
         # most samples turned faster than the gate: that, not the coverage, is the reason
@@ -391,6 +444,11 @@ def check_calibration(cal, cfg, k):
                 % (obs, cfg["min_observability"]))
     pe = _number(d, "predicted_error")
     if pe is not None and pe > cfg["max_predicted_nt"]:
+        rho = _number(d, "residual_rho")
+        if rho is not None and rho > 0.5:
+            return ("predicted_error_too_high", "predicted error %.2f nT > %.2f nT: the residuals follow each other"
+                    " (rho %.2f): the sensor lags the turn (check sensor_bandwidth_hz) or the field moves: turn slower"
+                    % (pe, cfg["max_predicted_nt"], rho))
         return ("predicted_error_too_high", "predicted error %.2f nT > %.2f nT: cover more orientations"
                 % (pe, cfg["max_predicted_nt"]))
     f0 = cfg["field_nt"]

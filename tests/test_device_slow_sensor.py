@@ -65,3 +65,25 @@ def test_turned_slowly_enough_it_calibrates_right(tmp_path):
     err = float(np.sqrt(np.mean((f - f.mean()) ** 2)))
     assert err < 3.0 * cal.diagnostics["predicted_error"], (err, cal.diagnostics["predicted_error"])
     assert cal.diagnostics["rms"] < 1.0       # no lag left in the residuals: the gate held it
+
+
+def test_a_lag_the_gate_was_not_told_about_is_seen_in_the_residuals(tmp_path):
+    """The Mag648 with sensor_bandwidth_hz left at the Mag649's 1000 Hz (gate 360 deg/s) and
+    turned at ~0.1 rev/s: the residuals are small (~4 nT rms, under max_rms_nt) but follow
+    each other from sample to sample (rho ~0.99). Without counting that, the fit predicted
+    0.99 nT and its real full-sphere error was 4.3 nT; with it, the calibration is refused
+    and the message says why."""
+    w = make_world(serial=None, sensor="mag648", motion="hand", rot_rate=0.1, seconds=63.0, seed=2,
+                   motion_seed=3, rate=1000)
+    write_config(str(tmp_path), **dict(handheld_config(w.scenario), sensor_bandwidth_hz=1000.0, max_cal_s=60))
+    dev = start_device(w, str(tmp_path), kind="cpython")
+    try:
+        dev.run_until(0.5)
+        w.press(0.2)
+        dev.run_until(62.0)
+        end = [e for e in events(w, "cal") if e.get("state") != "collecting"][-1]
+        assert end["state"] == "failed" and end["reason"] == "predicted_error_too_high", end
+        assert "follow each other" in end["msg"] and "sensor_bandwidth_hz" in end["msg"]
+        assert dev.app.cal is None
+    finally:
+        dev.close()
