@@ -16,7 +16,7 @@ import sys
 
 from desktop.formats import FormatError
 
-COMMANDS = ("fit", "correct", "demo", "simulate", "experiment",
+COMMANDS = ("fit", "tempco", "correct", "demo", "simulate", "experiment",
             "status", "calibrate", "monitor", "capture", "pull-cal", "push-cal", "report", "emulate",
             "deploy")
 

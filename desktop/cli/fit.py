@@ -91,6 +91,9 @@ def run(args):
         raise CommandError("calibration refused (%s): %s" % (REFUSED, _why(honest, args.max_predicted)))
     cal.meta["method"] = args.method
     cal.meta["source"] = args.raw
+    temp = _mean_die_temperature(args.raw)
+    if temp is not None:   # what fluxcal tempco needs to fit coefficients across calibrations
+        cal.meta["temperature_c"] = round(temp, 2)
     if args.prior is not None:
         cal.meta["prior"] = os.path.basename(args.prior)[-200:]
     save_calibration(args.output, cal)
@@ -119,3 +122,15 @@ def _why(honest, limit):
     else:
         hint = "cover more orientations"
     return "predicted error %.2f nT > %.2f nT: %s" % (honest["predicted_error"], limit, hint)
+
+
+def _mean_die_temperature(path):
+    """The mean ADS1292 die temperature of a capture (.npz), or None (a CSV carries none)."""
+    if not path.endswith(".npz"):
+        return None
+    from desktop.formats.capture import load_capture, temperature_from_codes
+    try:
+        t = temperature_from_codes(load_capture(path))
+    except (KeyError, ValueError):
+        return None
+    return float(t.mean()) if len(t) else None

@@ -35,6 +35,7 @@ def add_arguments(p):
     p.add_argument("--gradient", type=float, default=0.0, help="field gradient, nT/m")
     p.add_argument("--dipole", type=float, default=None, metavar="M",
                    help="a vehicle (300 A m^2) passes at this distance (m), mid-capture, 10 m/s")
+    p.add_argument("--temp", type=float, default=25.0, help="temperature at the start, C (default 25)")
     p.add_argument("--temp-drift", type=float, default=0.0, help="temperature drift, C/min")
     p.add_argument("--gain", type=int, default=1, help="ADS1292 PGA gain (1, 2, 3, 4, 6, 8, 12)")
     p.add_argument("--ideal", action="store_true", help="a perfect sensor and front end")
@@ -58,7 +59,7 @@ def scenario_from_args(args):
               seed=args.seed, motion_seed=args.motion_seed, field_nT=args.field,
               inclination_deg=args.inclination, declination_deg=args.declination,
               drift=args.drift, gradient=args.gradient, dipole=dipole,
-              temp_drift=args.temp_drift, gain=args.gain, ideal=args.ideal,
+              temp_c=args.temp, temp_drift=args.temp_drift, gain=args.gain, ideal=args.ideal,
               adc_noise=not args.no_adc_noise)
     if args.bandwidth is not None:
         if args.bandwidth <= 0:
