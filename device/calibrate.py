@@ -404,8 +404,9 @@ class Session:
             d["predicted_error"] = d["predicted_error"] * math.sqrt((1.0 + rho) / (1.0 - rho))
 
     def _fail_fast(self, reason, message):
-        # most samples turned faster than the gate: that, not the coverage, is the reason
-        if self.rej_rate * 2 > self.seen and reason != "not_better":
+        # most samples of a couple of seconds or more turned faster than the gate: that,
+        # not the coverage, is the reason (a session finished at once says too_few_samples)
+        if self.seen >= 2 * self._back and self.rej_rate * 2 > self.seen and reason != "not_better":
             return self._fail("too_fast", "%d of %d samples turned faster than %.0f deg/s (%s): turn slower"
                               % (self.rej_rate, self.seen, self.gate_dps, message))
         return self._fail(reason, message)
