@@ -9,7 +9,9 @@ SURVEY = (1000, 1000)                 # calm 0.5 Hz: calibrated, measuring
 COLLECTING = (250, 250)               # 2 Hz: keep rotating
 ENOUGH = (60, 90)                     # fast flicker: coverage reached, press to finish
 DONE = (2000, 0)                      # solid 2 s: calibration accepted
-DONE_QUICK = (600, 200, 600, 200, 600, 0)   # three long pulses: quick re-calibration accepted
+# three long pulses: quick re-calibration accepted (off before and after, so they never
+# merge with the pattern around them)
+DONE_QUICK = (0, 300, 600, 200, 600, 200, 600, 400)
 SLOW_DOWN = (900, 100)                # mostly on: turning faster than the sensor's bandwidth allows
 FAILED = (100, 100, 100, 100, 100, 100, 800, 400)  # triple blink, twice
 FAULT = (50, 50)                      # ADC fault: not answering, DRDY stuck, bad frames

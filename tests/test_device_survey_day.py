@@ -47,6 +47,15 @@ def _run_cal(w, dev, hold_s, limit_s):
     return done[0]
 
 
+def _three_long_pulses(led_log):
+    """Three on-pulses of 0.5-0.7 s in a row, 0.1-0.3 s apart, somewhere in the LED's log."""
+    on = [(t0, t1 - t0) for (t0, lv), (t1, _) in zip(led_log, led_log[1:]) if lv]
+    for a, b, c in zip(on, on[1:], on[2:]):
+        if all(0.5 < d < 0.7 for _, d in (a, b, c)) and 0.6 < b[0] - a[0] < 1.0 and 0.6 < c[0] - b[0] < 1.0:
+            return True
+    return False
+
+
 def _spin(root, kind, temp_c, cal=None, spin_s=10.0):
     w = _world(temp_c, "spin", spin_s + 2.0, rot_rate=1.0 / spin_s)
     dev = start_device(w, root, kind=kind)
@@ -95,6 +104,7 @@ def test_calibrate_cold_warm_up_quick_recalibrate_and_compensate(kind, tmp_path)
     finally:
         dev.close()
     assert quick["state"] == "done" and quick["kind"] == "quick", (quick, rec["diagnostics"])
+    assert _three_long_pulses(w.led_log)     # the LED's DONE_QUICK: 3 x 600 ms on, 200 ms off
     assert quick["tempco"] == "fitted" and quick["coverage"] < 0.5, quick
     assert rec["diagnostics"]["stale_rms"] > 5.0          # the cold calibration was off by the drift
     assert status["cal_kind"] == "quick"
