@@ -77,8 +77,9 @@ def _spin(root, kind, temp_c, cal=None, spin_s=10.0):
     return float(np.ptp(f)), data, status, w
 
 
-# In this CPython (in-process) and on the real `micropython` (a board's heap: runners.heap_for)
-@pytest.mark.parametrize("kind", ["cpython", "micropython"])
+# In this CPython (in-process), on the real `micropython` and on the single-precision and
+# 30-bit-float builds (a board's heap: runners.heap_for)
+@pytest.mark.parametrize("kind", ["cpython", "micropython", "micropython-float32", "micropython-reprc"])
 def test_calibrate_cold_warm_up_quick_recalibrate_and_compensate(kind, tmp_path):
     if kind != "cpython":
         need(kind)
