@@ -56,6 +56,7 @@ from shared.coverage import Coverage
 
 FULL = "full"
 QUICK = "quick"
+RESHAPED = "reshaped"     # a quick session whose data said the shape moved (shared/quick.py)
 AUTO = "auto"
 KINDS = (AUTO, FULL, QUICK)
 
@@ -301,11 +302,11 @@ class Session:
             return True
         return self.kind == AUTO and self.coverage() < self.cfg["min_coverage"]
 
-    def _solve(self, max_iter=60, final=False):
+    def _solve(self, max_iter=60, final=False, independent=1.0):
         # provisional solves of an auto session are full ones: it becomes quick only at the end
         quick = self.kind == QUICK or (final and self.quick())
         return self.fit.solve(field=None, prior=self.prior if quick else None, scale=self.k, max_iter=max_iter,
-                              refuse_worse=final)
+                              refuse_worse=final, independent=independent)
 
     def tick(self, now_ms, diff):
         """Provisional solve every solve_every_s; returns True if one ran."""
@@ -377,6 +378,13 @@ class Session:
                               % (self.clipped, "" if self.clip_axis is None else " on " + "xyz"[self.clip_axis]))
         try:
             cal = self._solve(final=True)
+            if cal.diagnostics.get("mode") in (QUICK, RESHAPED):
+                # a quick one decides between models by likelihood ratios, which correlated
+                # residuals inflate: solved again with the samples counted as independent
+                rho, pairs = self.residual_rho(cal)
+                if rho is not None and rho > 2.0 / math.sqrt(pairs):
+                    rho = min(rho, _MAX_RHO)
+                    cal = self._solve(final=True, independent=(1.0 - rho) / (1.0 + rho))
         except FitError as e:
             return self._fail_fast(e.reason, str(e))
         self._widen(cal)

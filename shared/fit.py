@@ -167,7 +167,7 @@ class EllipsoidFit:
             s[k] += o[k]
 
     def solve(self, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175),
-              min_samples=12, max_iter=60, max_error=None, quick=True, refuse_worse=True):
+              min_samples=12, max_iter=60, max_error=None, quick=True, refuse_worse=True, independent=1.0):
         """Fit h_c = M (h - b) with |h_c| constant; return a Calibration.
 
         field: the known local field in the output unit (nT), or None to fit it.
@@ -177,6 +177,8 @@ class EllipsoidFit:
         quick: False to fit all nine parameters with the prior as a weak one.
         refuse_worse: False to return a quick re-calibration even when it is not
             expected to beat the prior (a device's provisional estimate).
+        independent: for a quick re-calibration, the share of samples that count as
+            independent when the residuals are correlated (shared.quick.solve).
         num: the number type of the float work (float on the device;
             numpy.float32 or a rounding class to emulate narrow floats).
         scale: nominal output unit per input unit, a number or 3 numbers
@@ -196,5 +198,5 @@ class EllipsoidFit:
         if prior is not None and quick:
             from shared import quick as quick_fit
             return quick_fit.solve(self._s, prior, field, num, scale, shape_sigma, min_samples, max_iter, max_error,
-                                   refuse_worse)
+                                   refuse_worse, quick_fit.GAIN_MODELS, independent)
         return solver.solve(self._s, field, prior, num, scale, shape_sigma, min_samples, max_iter, max_error)

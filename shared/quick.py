@@ -98,8 +98,13 @@ def _rms(pb, rss, field):
 
 
 def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175), min_samples=12,
-          max_iter=60, max_error=None, refuse_worse=True, models=GAIN_MODELS):
-    """Quick re-calibration from the power sums; see the module docstring."""
+          max_iter=60, max_error=None, refuse_worse=True, models=GAIN_MODELS, independent=1.0):
+    """Quick re-calibration from the power sums; see the module docstring.
+
+    independent: the share of the samples that count as independent, (1 - rho) / (1 + rho)
+    for residuals with lag-1 correlation rho (device/calibrate.py measures it): the
+    likelihood ratios scale with it, so correlated residuals do not pass for a moved shape.
+    """
     if field is None:
         field = prior.field
     pb, k_nom, kr, observability = setup(sums, field, num, scale, min_samples)
@@ -122,7 +127,7 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
         more = _GainsAndOffsets(groups)
         st2, h2, it2, rej2 = iterate(pb, pr, st, num, max_iter, more)
         ratio = log_ratio(st.rss, st2.rss)
-        lr = n * ratio if ratio is not None else 0.0
+        lr = n * independent * ratio if ratio is not None else 0.0
         iterations += it2
         rejected += rej2
         if lr > CHI2_001[len(more.counts) - len(basis.counts)]:
@@ -144,7 +149,7 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
         full, full_st = solve_state(sums, field, prior, num, scale, shape_sigma, min_samples, max_iter,
                                     float("inf"))
         ratio = log_ratio(st.rss, full_st.rss)
-        lr = n * ratio if ratio is not None else 0.0
+        lr = n * independent * ratio if ratio is not None else 0.0
     except FitError:
         full, lr = None, 0.0
     d["shape_lr"] = lr

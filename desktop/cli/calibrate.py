@@ -1,4 +1,4 @@
-"""fluxcal calibrate [--auto]: run a calibration on the handheld, watched and steered from the laptop.
+"""fluxcal calibrate [--quick|--full] [--auto]: run a calibration on the handheld, watched and steered from the laptop.
 
 Starts a session (`start-cal`), shows the firmware's progress (`cal` events,
 once a second) and the coverage of the sphere (`get-coverage`), and ends it:
@@ -21,6 +21,13 @@ SILENCE_S = 5.0     # the firmware sends progress every second; this long withou
 
 
 def add_arguments(p):
+    kind = p.add_mutually_exclusive_group()
+    kind.add_argument("--quick", action="store_true",
+                      help="a quick re-calibration: keep the shape of the calibration in force, re-fit its "
+                           "offsets and gains from a partial turn (wrist twists, 10-30 %% of the sphere)")
+    kind.add_argument("--full", action="store_true",
+                      help="a full calibration even when the coverage stays partial (default: the firmware "
+                           "ends quick when a calibration is in force and the coverage is partial)")
     p.add_argument("--auto", action="store_true",
                    help="take no keys: wait until the firmware finishes by itself (coverage and error reached)")
     p.add_argument("--verify", type=float, default=0.0, metavar="S",
@@ -36,7 +43,7 @@ def run(args):
         cfg = device_config(dev)
         previous = dev.ask("get-cal")["cal"]
         status = dev.ask("status")
-        dev.ask("start-cal")
+        dev.ask("start-cal quick" if args.quick else "start-cal full" if args.full else "start-cal")
         try:
             view = Board(cfg, args.auto) if sys.stdout.isatty() else Lines(cfg)
             with view, Keys(enabled=not args.auto) as keys:
@@ -53,9 +60,11 @@ def run(args):
     if result.get("state") != "done":
         raise CommandError("calibration failed (%s): %s; the previous calibration stays in force"
                            % (result.get("reason"), result.get("msg")))
-    print("calibration done: %s; %s" % (fit_figures(result),
-                                        "saved, in force" if result.get("saved") else
-                                        "in force but NOT saved: %s" % result.get("save_error")))
+    print("calibration done: %s; %s; %s" % (fit_figures(result),
+                                            "saved, in force" if result.get("saved") else
+                                            "in force but NOT saved: %s" % result.get("save_error"),
+                                            "a quick re-calibration" if result.get("kind") == "quick" else
+                                            "%s calibration" % result.get("kind", "full")))
     if verify:
         print("verification: %d samples of corrected |B| over %.1f s: peak-to-peak %.3f nT, std %.3f nT" % verify)
     if previous is None:
