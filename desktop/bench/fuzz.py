@@ -92,7 +92,7 @@ WRONG_TYPES = ["12", "hot", "", "\u00e9\u00e8", "\\u0000", True, False, None, []
 NASTY_BYTES = [b"\x00", b"\x03", b"\x04", b"\x1b[A", b"\xc3\x28", b"\xff\xfe", b"\xed\xa0\x80",
                b"\xf4\x90\x80\x80", b"\xc0\xaf", b"\xe2\x80\xa8", b"\xc2\x85", b"\xe3\x80\x80", b"\r",
                b"\r\r", b"\t", b"\x0b\x0c", b"\x7f", b"\xef\xbb\xbf", b" ", b"\\", b'"', b"{", b"}"]
-WORDS = ["on", "off", "raw", "corrected", "get", "set", "sideways", "true", "false", "null", "help", "-",
+WORDS = ["on", "off", "quick", "full", "auto", "raw", "corrected", "get", "set", "sideways", "true", "false", "null", "help", "-",
          "__import__('os')", "../../cal.json", "%s%s%n", "\u00fc\u00f1\u00ee", "a" * 40, "STATUS", "0"]
 
 
