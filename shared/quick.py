@@ -119,6 +119,9 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
         raise FitError(DEGENERATE_COVERAGE, "the samples turned by %.1f degrees rms: turn the instrument"
                        % math.degrees(turn))
     stale = _State(pb, pr, [_quantise(x) for x in pr.a_frame], [_quantise(x) for x in pr.f_target])
+    # a provisional estimate (a device's, every few seconds while collecting: max_iter <= 2)
+    # skips the shape test, a whole nine-parameter fit; the final solve runs it
+    provisional = max_iter <= 2
     # one common gain first; a gain per ADC, then per axis, only where the data ask for them
     basis = _GainsAndOffsets(models[0])
     st, h, iterations, rejected = iterate(pb, pr, stale, num, max_iter, basis)
@@ -146,6 +149,8 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
 
     # The shape test: the full fit, weakly tied to the previous calibration.
     try:
+        if provisional:
+            raise FitError(NOT_BETTER, "no shape test for a provisional estimate")
         full, full_st = solve_state(sums, field, prior, num, scale, shape_sigma, min_samples, max_iter,
                                     float("inf"))
         ratio = log_ratio(st.rss, full_st.rss)
