@@ -53,6 +53,7 @@ _TEMP_STEP_C = 0.05
 # the coefficients hold a little beyond the temperatures they were measured at (each a
 # calibration's mean die reading): warn only this far outside their range
 _RANGE_MARGIN_C = 1.0
+_EXTRAPOLATE_C = 10.0     # and are applied at most this far outside it (held there beyond)
 
 
 class App:
@@ -182,6 +183,10 @@ class App:
         recomputed when the temperature moved by _TEMP_STEP_C: about 40 float operations."""
         cal = self.cal
         if cal is not None and cal.tempco is not None and temp is not None:
+            # linear beyond the measured range for a few degrees, held there after: a die
+            # reading far off (a fault, a hot spot) must not extrapolate the drift without end
+            lo, hi = cal.tempco["range_c"]
+            temp = min(max(temp, lo - _EXTRAPOLATE_C), hi + _EXTRAPOLATE_C)
             if not force and self._comp_temp is not None and abs(temp - self._comp_temp) < _TEMP_STEP_C:
                 return
             self._comp_temp = temp

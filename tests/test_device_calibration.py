@@ -269,3 +269,38 @@ def test_start_cal_kinds_are_checked(tmp_path):
         assert reply["ok"] and reply["kind"] == "full"      # nothing in force: auto is a full one
     finally:
         dev.close()
+
+
+@pytest.mark.parametrize("die_c, warned, applied_c", [(24.0, False, 24.0), (26.5, True, 26.5), (60.0, True, 35.0)])
+def test_compensation_warns_outside_its_range_and_holds_far_outside(tmp_path, die_c, warned, applied_c):
+    """A calibration with temperature coefficients measured over 15..25 C: the survey applies
+    them at the die temperature, warns more than 1 C outside the range, and beyond 10 C
+    outside holds them at the edge (a die reading of 60 C is corrected as 35 C). Checked on
+    the streamed vectors against Calibration.at_temperature of the same record: the same to
+    the firmware's rounding of its output (3 decimals) and the block's averaging of codes."""
+    from shared.calibration import Calibration
+    w = make_world(serial=None, motion="stationary", seconds=4.0, seed=4, rate=2000, temp_c=die_c)
+    write_config(str(tmp_path), **handheld_config(w.scenario))
+    dev = start_device(w, str(tmp_path), kind="cpython")
+    try:
+        dev.run_until(0.5)
+        k = float(w.scenario.nt_per_code()[0])
+        tc = {"t0_c": 20.0, "offset_per_c": [40.0, -25.0, 10.0], "gain_per_c": [2e-5, -1e-5, 3e-5],
+              "range_c": [15.0, 25.0], "sources": 2, "method": "calibrations"}
+        cal = Calibration([[k, 0, 0], [0, k, 0], [0, 0, k]], [0, 0, 0], w.scenario.field_nT,
+                          meta={"temperature_c": 20.0}, tempco=tc)
+        w.send(b"set-cal " + json.dumps(cal.to_dict()).encode() + b"\nstream corrected\n")
+        dev.run_until(2.0)
+        data = events(w, "data")[-5:]
+        assert len(data) == 5
+        for d in data:
+            assert bool(d["warn"]) is warned and (not warned or "outside the compensated 15.0..25.0 C" in d["warn"])
+            expect = cal.at_temperature(applied_c).correct(*d["c"])
+            # the die reads to ~0.02 C: at these coefficients (40 codes/C, k = 0.0144 nT/code)
+            # 0.02 C moves b by 0.012 nT; the output is rounded to 0.001 nT
+            assert max(abs(a - b) for a, b in zip(d["b"], expect)) < 0.05, (d["b"], expect)
+            if applied_c != die_c:
+                wrong = cal.at_temperature(die_c).correct(*d["c"])
+                assert max(abs(a - b) for a, b in zip(d["b"], wrong)) > 1.0
+    finally:
+        dev.close()
