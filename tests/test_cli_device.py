@@ -114,10 +114,13 @@ def test_calibrate_auto_then_pull_cal_agrees_with_a_numpy_fit(tmp_path):
     assert float(verified[0].split("peak-to-peak ")[1].split(" nT")[0]) < 4 * bound, verified
 
 
-@pytest.mark.parametrize("keys, words", [("c\n", ("calibration cancelled", "previous calibration stays")),
-                                         ("f\n", ("calibration failed (too_few_samples)",))])
-def test_calibrate_finished_or_cancelled_from_the_keyboard(handheld, keys, words):
-    fails_in_one_line(fluxcal("calibrate", "--port", handheld.port, keys=keys), *words)
+@pytest.mark.parametrize("flags, keys, words", [
+    ((), "c\n", ("calibration cancelled", "previous calibration stays")),
+    ((), "f\n", ("calibration failed (too_few_samples)",)),
+    (("--full",), "f\n", ("calibration failed (too_few_samples)",)),     # start-cal full
+])
+def test_calibrate_finished_or_cancelled_from_the_keyboard(handheld, flags, keys, words):
+    fails_in_one_line(fluxcal("calibrate", *flags, "--port", handheld.port, keys=keys), *words)
     assert json.loads(ok(fluxcal("status", "--json", "--port", handheld.port)))["status"]["state"] == "survey"
 
 

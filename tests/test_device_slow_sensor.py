@@ -15,10 +15,10 @@ from desktop.devicesim.runners import start_device, write_config
 from desktop.devicesim.world import make_world
 
 
-def _session(tmp_path, rot_rate, seconds):
+def _session(tmp_path, rot_rate, seconds, **cfg):
     w = make_world(serial=None, sensor="mag648", motion="hand", rot_rate=rot_rate, seconds=seconds + 3.0,
                    seed=2, motion_seed=3, rate=1000)
-    write_config(str(tmp_path), **handheld_config(w.scenario), max_cal_s=int(seconds))
+    write_config(str(tmp_path), **dict(handheld_config(w.scenario), max_cal_s=int(seconds), **cfg))
     dev = start_device(w, str(tmp_path), kind="cpython")
     dev.run_until(0.5)
     w.press(0.2)
@@ -73,14 +73,8 @@ def test_a_lag_the_gate_was_not_told_about_is_seen_in_the_residuals(tmp_path):
     each other from sample to sample (rho ~0.99). Without counting that, the fit predicted
     0.99 nT and its real full-sphere error was 4.3 nT; with it, the calibration is refused
     and the message says why."""
-    w = make_world(serial=None, sensor="mag648", motion="hand", rot_rate=0.1, seconds=63.0, seed=2,
-                   motion_seed=3, rate=1000)
-    write_config(str(tmp_path), **dict(handheld_config(w.scenario), sensor_bandwidth_hz=1000.0, max_cal_s=60))
-    dev = start_device(w, str(tmp_path), kind="cpython")
+    w, dev = _session(tmp_path, 0.1, 60.0, sensor_bandwidth_hz=1000.0)
     try:
-        dev.run_until(0.5)
-        w.press(0.2)
-        dev.run_until(62.0)
         end = [e for e in events(w, "cal") if e.get("state") != "collecting"][-1]
         assert end["state"] == "failed" and end["reason"] == "predicted_error_too_high", end
         assert "follow each other" in end["msg"] and "sensor_bandwidth_hz" in end["msg"]
