@@ -5,7 +5,10 @@
     events(w, "fault", since)                # events by name from line index `since`
 """
 
+import contextlib
 import json
+
+import serial
 
 from desktop.devicesim.runners import start_device
 from desktop.devicesim.world import make_world
@@ -45,3 +48,18 @@ def data_after(w, dev, seconds=1.0):
     start = len(w.lines())
     dev.run_until(w.time + seconds)
     return events(w, "data", start)
+
+
+@contextlib.contextmanager
+def on_pty(tmp_path, seconds=30.0, timeout=2):
+    """A still handheld whose firmware (in-process) answers on a real pseudo-terminal:
+    (world, device, pyserial port opened exclusively as a host would)."""
+    w = make_world(serial="pty", motion="stationary", seconds=seconds, seed=5)
+    dev = start_device(w, str(tmp_path), kind="cpython")
+    dev.run_until(0.5)
+    ser = serial.Serial(w.serial_port, baudrate=115200, timeout=timeout, exclusive=True)
+    try:
+        yield w, dev, ser
+    finally:
+        ser.close()
+        dev.close()

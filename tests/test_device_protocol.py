@@ -13,19 +13,15 @@ import serial
 from desktop.devicesim.client import Client
 from desktop.devicesim.runners import start_device
 from desktop.devicesim.world import make_world
+from tests.device_session import on_pty
 from tests.interpreters import INTERPRETERS, need
 
 
 @pytest.fixture
 def client(tmp_path):
-    w = make_world(serial="pty", motion="stationary", seconds=5.0, seed=5)
-    dev = start_device(w, str(tmp_path), kind="cpython")
-    dev.run_until(0.5)
-    ser = serial.Serial(w.serial_port, baudrate=115200, timeout=1, exclusive=True)
-    c = Client(ser, dev)
-    yield c
-    ser.close()
-    dev.close()
+    with on_pty(tmp_path, 5.0, timeout=1) as (w, dev, ser):
+        c = Client(ser, dev)
+        yield c
     assert c.junk == [], "non-JSON output on the serial line"
 
 

@@ -14,14 +14,12 @@ import time
 
 import numpy as np
 import pytest
-import serial
 
 from desktop.devicesim.client import Client
-from desktop.devicesim.runners import start_device
-from desktop.devicesim.world import make_world
 from desktop.sim import motion as M
 from desktop.sim.handheld import Handheld
 from desktop.sim.scenario import Scenario
+from tests.device_session import on_pty
 
 
 class _World:
@@ -68,13 +66,8 @@ def test_client_assembles_lines_split_across_reads():
 
 @pytest.fixture
 def flood_device(tmp_path):
-    w = make_world(serial="pty", motion="stationary", seconds=30.0, seed=5)
-    dev = start_device(w, str(tmp_path), kind="cpython")
-    dev.run_until(0.5)
-    ser = serial.Serial(w.serial_port, baudrate=115200, timeout=2, exclusive=True)
-    yield w, dev, ser
-    ser.close()
-    dev.close()
+    with on_pty(tmp_path, 30.0, timeout=2) as wds:
+        yield wds
 
 
 def test_a_flood_of_ten_thousand_commands_is_answered_line_for_line(flood_device):
