@@ -378,9 +378,12 @@ class Session:
                               % (self.clipped, "" if self.clip_axis is None else " on " + "xyz"[self.clip_axis]))
         try:
             cal = self._solve(final=True)
-            if cal.diagnostics.get("mode") in (QUICK, RESHAPED):
-                # a quick one decides between models by likelihood ratios, which correlated
+            d = cal.diagnostics
+            if d.get("mode") == RESHAPED or (d.get("mode") == QUICK and d.get("gains", 1) > 1):
+                # a quick one chose a bigger model by likelihood ratios, which correlated
                 # residuals inflate: solved again with the samples counted as independent
+                # (scaling the ratios down can only keep a smaller model, so the common-gain
+                # result stands as it is)
                 rho, pairs = self.residual_rho(cal)
                 if rho is not None and rho > 2.0 / math.sqrt(pairs):
                     rho = min(rho, _MAX_RHO)

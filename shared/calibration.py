@@ -177,18 +177,20 @@ class Calibration:
         return math.sqrt(cx * cx + cy * cy + cz * cz)
 
     def scaled_input(self, unit):
-        """The same calibration for inputs measured in `unit` times larger steps.
+        """The same calibration for inputs measured in `unit` times larger steps (a number,
+        or one per axis).
 
         A fit on integers n = round(h / unit) gives h_c = M (n - b); in terms of h
-        that is (M / unit)(h - b * unit).
+        that is (M / unit)(h - b * unit), M's columns divided axis by axis.
         """
+        u = unit if isinstance(unit, (list, tuple)) else (unit, unit, unit)
         tc = self.tempco
         if tc is not None:
             tc = dict(tc)
-            tc["offset_per_c"] = [v * unit for v in tc["offset_per_c"]]
+            tc["offset_per_c"] = [v * k for v, k in zip(tc["offset_per_c"], u)]
         return Calibration(
-            [[v / unit for v in row] for row in self.matrix],
-            [v * unit for v in self.offset],
+            [[row[j] / u[j] for j in range(3)] for row in self.matrix],
+            [v * k for v, k in zip(self.offset, u)],
             self.field,
             self.diagnostics,
             self.meta,

@@ -45,18 +45,8 @@ def to_code_units(cal, nT_per_code):
     if takes_codes(cal):
         return cal
     k = [float(v) for v in nT_per_code]
-    matrix = [[row[j] * k[j] for j in range(3)] for row in cal.matrix]
-    return Calibration(matrix, [b / kj for b, kj in zip(cal.offset, k)], cal.field, cal.diagnostics,
-                       dict(cal.meta, units=CODE_UNITS, scale=k), _tempco_scaled(cal.tempco, [1.0 / kj for kj in k]))
-
-
-def _tempco_scaled(tc, factors):
-    """Temperature coefficients for inputs in another unit: the offsets' slopes scale as the
-    offsets do (per axis), the gains' are relative and stay."""
-    if tc is None:
-        return None
-    out = dict(tc)
-    out["offset_per_c"] = [o * f for o, f in zip(tc["offset_per_c"], factors)]
+    out = cal.scaled_input([1.0 / kj for kj in k])
+    out.meta = dict(cal.meta, units=CODE_UNITS, scale=k)
     return out
 
 
@@ -64,11 +54,9 @@ def to_nT_units(cal, nT_per_code):
     """A calibration of codes n as one of nT readings h = k n: M K^-1, k b."""
     if not takes_codes(cal):
         return cal
-    k = [float(v) for v in nT_per_code]
-    matrix = [[row[j] / k[j] for j in range(3)] for row in cal.matrix]
-    meta = {key: v for key, v in cal.meta.items() if key != "units"}
-    return Calibration(matrix, [b * kj for b, kj in zip(cal.offset, k)], cal.field, cal.diagnostics, meta,
-                       _tempco_scaled(cal.tempco, k))
+    out = cal.scaled_input([float(v) for v in nT_per_code])
+    out.meta = {key: v for key, v in cal.meta.items() if key != "units"}
+    return out
 
 
 def plausibility_problem(cal):
