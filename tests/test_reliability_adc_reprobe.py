@@ -11,6 +11,7 @@ period (health.CHECK_MS) after the re-probe has seen conversions with good heade
 Times are the firmware's (ticks_ms: its events' "t"), observed every STEP_S of the world.
 """
 
+import contextlib
 import json
 
 import pytest
@@ -49,28 +50,32 @@ def cleared(log):
     return [(t, d) for t, d in log if d.get("ev") == "fault" and d.get("code") is None]
 
 
-@pytest.mark.parametrize("chip, fault, rate", PROBE_PASSING, ids=[f[1] for f in PROBE_PASSING])
-def test_a_fault_that_passes_the_probe_is_never_cleared_while_it_lasts(tmp_path, chip, fault, rate):
+@contextlib.contextmanager
+def faulty(tmp_path, chip, fault, rate):
+    """A still handheld streaming raw samples whose chip `chip` has just taken `fault`."""
     w, dev = boot(tmp_path, seed=12)
     try:
         ask(w, dev, "stream raw", dt=0.5)
         w.handheld.set_fault(chip, fault, rate)
+        yield w, dev
+    finally:
+        dev.close()
+
+
+@pytest.mark.parametrize("chip, fault, rate", PROBE_PASSING, ids=[f[1] for f in PROBE_PASSING])
+def test_a_fault_that_passes_the_probe_is_never_cleared_while_it_lasts(tmp_path, chip, fault, rate):
+    with faulty(tmp_path, chip, fault, rate) as (w, dev):
         # the fault named, then three re-probe intervals (the interval only grows)
         log = run_logged(w, dev, 1.0 + 3 * REPROBE_S + CHECK_S)
         faults = [d for _, d in log if d.get("ev") == "fault"]
         assert faults and faults[0]["code"], faults
         assert not cleared(log), faults
         assert ask(w, dev, "status")["state"] == "fault"
-    finally:
-        dev.close()
 
 
 @pytest.mark.parametrize("chip, fault, rate", PROBE_PASSING, ids=[f[1] for f in PROBE_PASSING])
 def test_a_recovered_chip_is_cleared_one_check_after_its_reprobe(tmp_path, chip, fault, rate):
-    w, dev = boot(tmp_path, seed=12)
-    try:
-        ask(w, dev, "stream raw", dt=0.5)
-        w.handheld.set_fault(chip, fault, rate)
+    with faulty(tmp_path, chip, fault, rate) as (w, dev):
         run_logged(w, dev, 1.0)
         assert ask(w, dev, "status")["state"] == "fault"
         w.handheld.set_fault(chip, None)
@@ -87,5 +92,3 @@ def test_a_recovered_chip_is_cleared_one_check_after_its_reprobe(tmp_path, chip,
         gap = t_cleared - first
         assert CHECK_S - period - STEP_S <= gap <= CHECK_S + PASS_SLACK_S + STEP_S, (raw[:4], t_cleared)
         assert ask(w, dev, "status")["state"] == "survey"
-    finally:
-        dev.close()
