@@ -1,0 +1,70 @@
+"""The `status` reply's keys, pinned: every owner of the firmware's state contributes its part
+(the acquisition, the ADC supervisor, the boot guard, the output, the calibration flow) and the
+status command merges them, so a part dropped or renamed in a refactor fails here, not on a
+user's laptop (docs/protocol.md lists the keys for users; desktop/cli reads them).
+
+The sets were taken from the firmware as it was before its state was split among those owners.
+"""
+
+from tests.device_session import ask, boot
+
+# in every reply, whatever the state
+ALWAYS = {"v", "ok", "cmd", "state", "fault", "fault_code", "safe_mode", "errors", "last_error", "calibrated",
+          "cal_source", "cal_problem", "config_problems", "stream", "uptime_ms", "temp", "temp_warn", "cal_kind",
+          "tempco_range", "last_cal", "frames", "overflow", "missed", "badsync", "discarded", "gaps", "samples",
+          "spikes", "clipped"}
+# the ADC's run-time health exists once the chips answered at boot
+HEALTH = {"adc_faults"}
+# a calibration in progress: its progress report
+PROGRESS = {"state", "kind", "gate_dps", "slow_down", "n", "seen", "coverage", "pred_nt", "rej_rate", "rej_dist",
+            "rej_cap", "removed", "clipped", "ready"}
+
+
+def test_survey_reply(tmp_path):
+    w, dev = boot(tmp_path)
+    try:
+        s = ask(w, dev, "status")
+        assert set(s) == ALWAYS | HEALTH
+        assert (s["state"], s["fault"], s["calibrated"], s["stream"], s["errors"]) == ("survey", None, False, "off", 0)
+        assert s["samples"] > 0 and s["frames"] > s["samples"]   # decimated: fewer samples than frames
+    finally:
+        dev.close()
+
+
+def test_calibrating_and_logging_reply(tmp_path):
+    w, dev = boot(tmp_path)
+    try:
+        assert ask(w, dev, "config set log true")["ok"]
+        assert ask(w, dev, "start-cal")["ok"]
+        s = ask(w, dev, "status")
+        assert set(s) == ALWAYS | HEALTH | {"cal", "log"}
+        assert s["state"] == "calibrating" and set(s["cal"]) == PROGRESS and s["cal"]["state"] == "collecting"
+        assert set(s["log"]) == {"lines", "error"} and s["log"]["error"] is None
+        assert ask(w, dev, "cancel-cal")["ok"]
+        s = ask(w, dev, "status")
+        assert set(s) == ALWAYS | HEALTH | {"log"}
+        assert s["state"] == "survey" and s["last_cal"]["state"] == "cancelled"
+    finally:
+        dev.close()
+
+
+def test_fault_at_boot_reply(tmp_path):
+    """A chip that never answered: no run-time health yet (it starts once the chips answer)."""
+    w, dev = boot(tmp_path, fault=(None, "absent-0x00"))
+    try:
+        s = ask(w, dev, "status")
+        assert set(s) == ALWAYS
+        assert (s["state"], s["fault_code"], s["temp"]) == ("fault", "adc_probe", None)
+    finally:
+        dev.close()
+
+
+def test_a_board_adds_its_free_heap(tmp_path):
+    """MicroPython and CircuitPython have gc.mem_free (the `micropython` executable here)."""
+    w, dev = boot(tmp_path, kind="micropython")
+    try:
+        s = ask(w, dev, "status")
+        assert set(s) == ALWAYS | HEALTH | {"mem_free"}
+        assert isinstance(s["mem_free"], int)
+    finally:
+        dev.close()
