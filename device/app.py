@@ -36,7 +36,7 @@ from protocol import VERSION, Protocol, ProtocolError, json_number
 from screen import Screen
 from survey import Survey, RotatingLog
 from shared.calibration import Calibration
-import calibrate
+from session import AUTO, FULL, KINDS, QUICK, Session
 
 FIRMWARE_VERSION = "0.1.0"
 _DRAIN = 16      # samples per loop pass at least (more when more arrive per pass)
@@ -325,7 +325,7 @@ class App:
             # idle: a short press starts a calibration (auto: quick or full by the coverage
             # reached), a long one a quick re-calibration (docs/firmware.md, the button)
             try:
-                self.start_session(calibrate.AUTO if ev == SHORT else calibrate.QUICK)
+                self.start_session(AUTO if ev == SHORT else QUICK)
             except ProtocolError as e:
                 self.proto.event("cal", {"state": "failed", "reason": e.code, "msg": str(e)})
                 self.led.flash(ledp.FAILED)
@@ -429,21 +429,21 @@ class App:
             self.log.write("%d,%.3f,%.3f,%.3f,%.3f,%.2f\n" % (t, bx, by, bz, f, temp))
 
     # ****** calibration flow (the button and commands.py both drive it) ******
-    def start_session(self, kind=calibrate.AUTO):
+    def start_session(self, kind=AUTO):
         if self.session is not None:
             raise ProtocolError("busy", "calibration already in progress")
         if self.fault:
             raise ProtocolError("fault", "ADC fault (%s): %s" % (self.fault_code, self.fault))
-        if kind not in calibrate.KINDS:
+        if kind not in KINDS:
             raise ProtocolError("bad_argument", "kind must be auto, full or quick")
-        if kind == calibrate.QUICK and self.cal is None:
+        if kind == QUICK and self.cal is None:
             raise ProtocolError("no_calibration", "a quick re-calibration needs a calibration in force: run a full one")
         c = self.cfg
         period_ms = 1000.0 * c["decim"] / c["rate"]
         # the previous calibration as it stands now (its temperature coefficients applied)
-        prior = None if kind == calibrate.FULL else self.cal_now
+        prior = None if kind == FULL else self.cal_now
         gc.collect()   # the session's buffers want a few contiguous KB of a small heap
-        self.session = calibrate.Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind)
+        self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind)
         self.last_progress = self.board.ticks_ms()
         self.led.set(ledp.COLLECTING)
         self.proto.event("cal", self.session.progress())
@@ -476,7 +476,7 @@ class App:
                 result[k] = json_number(d.get(k), 4)
             result["field"] = json_number(cal.field, 2)
             result["kind"] = cal.meta.get("kind")
-            self.led.flash(ledp.DONE if result["kind"] == calibrate.FULL else ledp.DONE_QUICK)
+            self.led.flash(ledp.DONE if result["kind"] == FULL else ledp.DONE_QUICK)
         self.last_result = result
         self.proto.event("cal", result)
         self._steady_led()

@@ -12,7 +12,8 @@ import gc
 import json
 import sys
 
-import calibrate
+import session
+from acceptance import check_calibration
 import config as cfgmod
 from acquisition import BADSYNC, FRAMES, MISSED, OVERFLOW
 from protocol import VERSION, ProtocolError, json_number
@@ -97,7 +98,7 @@ def set_cal(app, args):
     except ValueError:
         raise ProtocolError("bad_json", "set-cal argument is not valid JSON")
     cal = Calibration.from_dict(d)  # ValueError names the problem
-    problem = calibrate.check_calibration(cal, app.cfg, app.scale)
+    problem = check_calibration(cal, app.cfg, app.scale)
     if problem:
         raise ProtocolError(problem[0], problem[1])
     cal.meta["source"] = "set-cal"
@@ -120,7 +121,7 @@ def clear_cal(app, args):
 def start_cal(app, args):
     # start-cal [auto|full|quick]: auto (the button's short press) ends quick when a
     # calibration is in force and the coverage stays partial, else full
-    kind = args.strip() or calibrate.AUTO
+    kind = args.strip() or session.AUTO
     app.start_session(kind)
     return {"kind": app.session.kind}
 

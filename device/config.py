@@ -56,7 +56,7 @@ SCHEMA = {
     "gate_rate_dps": (360.0, "float", 10.0, 5000.0),  # rotation-rate gate: 1 rev/s (smearing)
     # the sensor's -3 dB bandwidth (Mag649 1 kHz, Mag648 5 Hz): its lag shrinks |B| by
     # (tau w)^2 / 2 while turning, so the gate comes down to keep that under lag_tol_nt
-    # (calibrate.py gate_dps; docs/experiments.md, lag)
+    # (gates.py gate_dps; docs/experiments/lag.md)
     "sensor_bandwidth_hz": (1000.0, "float", 0.1, 100000.0),
     "lag_tol_nt": (0.5, "float", 0.001, 100.0),
     "quick_min_coverage": (0.1, "float", 0.01, 1.0),  # a quick re-calibration auto-finishes here

@@ -12,8 +12,8 @@ vector bends by |v|**2 / |h| per sample (centripetal), a turning hand adds
 B alpha dt**2 at a reversal, and a real step (walking over iron) stays.
 So sample i is a spike when it departs from BOTH neighbours in the SAME
 direction by more than that bend plus a threshold:
-    min(|x_i - x_(i-1)|, |x_i - x_(i+1)|) > spike_nt + max(6 * typical, 2 |v|**2 / |h|)
-on one axis (nT), with `typical` a running mean of that same quantity
+    min(|x_i - x_(i-1)|, |x_i - x_(i+1)|) > spike_nt + max(TYPICAL * typical, 2 |v|**2 / |h|)
+on one axis (nT), with TYPICAL = 4 and `typical` a running mean of that same quantity
 (it is large while the hand reverses quickly, noise-sized at rest). A step
 fails the test (x_i equals its next neighbour); smooth motion fails it
 (the two differences have opposite signs). A false alarm costs one sample;
@@ -21,7 +21,7 @@ a spike let through costs nT in the survey (docs/reliability.md has both rates).
 
 Clipped: a boxcar of full-scale codes ([DS 8.3.8] saturates at 0x7FFFFF / 0x800000)
 means the sensor or the PGA gain exceeds the ADC's range; the sample is not
-the field (calibrate.py names it `clipped` when it happens during a calibration).
+the field (session.py names it `clipped` when it happens during a calibration).
 """
 
 CLIP_CODES = 8323072   # 2**23 - 2**16: within 0.8 % of full scale

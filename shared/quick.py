@@ -102,7 +102,7 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
     """Quick re-calibration from the power sums; see the module docstring.
 
     independent: the share of the samples that count as independent, (1 - rho) / (1 + rho)
-    for residuals with lag-1 correlation rho (device/calibrate.py measures it): the
+    for residuals with lag-1 correlation rho (device/session.py measures it): the
     likelihood ratios scale with it, so correlated residuals do not pass for a moved shape.
     """
     if field is None:

@@ -20,7 +20,7 @@ The codes go through the firmware's acquisition (device/acquisition.py: the last
 defaults 1000 SPS, decim 10, window 2) and its rotation-rate gate (360 deg/s
 between neighbouring samples; the coverage cap is left out: a hand rotation does
 not linger), into shared.fit.EllipsoidFit / shared.tempco.WarmupFit as
-integers, solved with the nominal scale as the firmware does (device/calibrate.py),
+integers, solved with the nominal scale as the firmware does (device/session.py),
 then rescaled to codes. The spin's |h_c| is averaged over 0.1 s survey blocks
 (device/survey.py, survey_hz 10) and its peak-to-peak and rms (about the mean)
 are taken over the turn:

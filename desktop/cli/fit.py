@@ -4,7 +4,7 @@ The written calibration's predicted full-sphere error is the honest one of
 desktop.methods.residuals (the core's white-noise value inflated by the
 residuals' correlation in time, with a systematic floor); a calibration
 predicted worse than --max-predicted is refused like the firmware refuses it
-(reason predicted_error_too_high, device/calibrate.py), unless --accept-anyway.
+(reason predicted_error_too_high, device/acceptance.py), unless --accept-anyway.
 """
 
 import os

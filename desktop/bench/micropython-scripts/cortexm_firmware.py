@@ -32,6 +32,15 @@ def loop(app, board, frames, harness):
     return count(t0, time.ticks_us()) - frames * harness
 
 
+def session_module():
+    """The firmware's calibration session module (calibrate.py in a revision before it was split)."""
+    try:
+        import session
+    except ImportError:
+        import calibrate as session
+    return session
+
+
 def record(app, board, n):
     """n decimated samples (boxcar sums) as the DRDY handler delivers them, for the replays."""
     buf = array("i", bytes(12 * n))
@@ -73,7 +82,7 @@ def provisional_solve(session, calibrate):
 def units(app, board, out, replay_n):
     """The DRDY handler by kind of frame, the gates and add() (replays), a final and a
     provisional solve, and one survey output block; returns the board's harness cost."""
-    import calibrate
+    calibrate = session_module()
     cfg = app.cfg
     harness, skip, read, push = board.handler_costs(app.acq, per_frame, 2000)
     out["harness"] = harness
@@ -137,7 +146,7 @@ def units(app, board, out, replay_n):
 def loops(app, board, out, seconds, harness):
     """The whole firmware per second of data: the real main loop calibrating (its steady
     state: one provisional solve per solve_every_s), then in survey streaming corrected."""
-    import calibrate
+    calibrate = session_module()
     cfg = app.cfg
     rate = cfg["rate"]
     app.start_session()
@@ -158,7 +167,7 @@ def loops(app, board, out, seconds, harness):
     # provisional solve per solve_every_s
     out["calibrating_per_s"] = (n - out["cal_solves"] * prov) // seconds + prov // cfg["solve_every_s"]
     out["solve_provisional_loop"] = prov
-    out["cal_seen"] = s.seen
+    out["cal_seen"] = getattr(s, "gates", s).seen   # its gates' count (the session's before they were split)
     out["cal_accepted"] = s.fit.n
     code_cal, reason, msg = s.finish()
     out["cal_state"] = s.state

@@ -141,9 +141,10 @@ def main():
     s = app.session
     cpu = []
     record("cal", run_loop(app, board, frames_run, cpu), cpu)
-    out["cal_samples"] = s.seen
+    g = getattr(s, "gates", s)   # the gates' counts (the session's before they were split)
+    out["cal_samples"] = g.seen
     out["cal_accepted"] = s.fit.n
-    out["cal_rej"] = [s.rej_rate, s.rej_cap, s.rej_dist]
+    out["cal_rej"] = [g.rej_rate, g.rej_cap, g.rej_dist]
     out["heap_cal"] = heap()
     solves = []
     c0 = time.clock()

@@ -1,0 +1,196 @@
+"""Which decimated samples a calibration takes: rotation rate, coverage cap, disturbance.
+
+    g = Gates(cfg, fit, cov, window, period_ms, centre)   # centre: sum units (prior offset or 0)
+    g.sample(sx, sy, sz)      # True if it went into fit (and cov)
+    g.provisional = cal       # a provisional fit good enough to judge disturbances (session.py)
+    g.dist_limit = nt         # the disturbance gate, from that fit's residual
+
+The gates, in order (each rejection is counted and reported). They work on the
+sums shifted down to ~14 bits (`_sh`, full scale < 2**14), so every product
+below stays a small int (< 2**30: no heap allocation on MicroPython, where a
+float op or a bigger int allocates) and the cell index is cheap; 14 bits put
+one step at ~0.01 degree of direction, far below the ~20 degree cells and the
+gate's ~7 degree turn per sample.
+1. rotation rate: the chord |v_k - v_(k-s)| (offset free) over |v - c| and s
+   sample periods gives the turn rate; above the gate the sample is dropped.
+   The gate is the lower of gate_rate_dps (the boxcar smears |B|: shrink
+   ~ (w T)^2 / 24) and what the sensor's own bandwidth allows: a first-order
+   low-pass of time constant tau = 1 / (2 pi sensor_bandwidth_hz) reads
+   |B| (1 - (tau w)^2 / 2) while turning at w (docs/experiments/lag.md), so
+   w <= sqrt(2 lag_tol_nt / B) / tau: 720 deg/s for a 1 kHz Mag649 (the
+   360 deg/s gate stands), 8 deg/s for a 5 Hz Mag648. The stride s spans
+   enough samples that the allowed turn is a few 14-bit steps. The gate works
+   in codes: exact for equal scale_x/y/z, tilted by their ratio otherwise.
+2. coverage cap: 6*cells^2 equal-area cells about the centre (the previous
+   calibration's offset, else the front end's zero: raw offsets are < 2 % of
+   |B|, a direction error of ~1 degree against ~20 degree cells); a full
+   cell takes no more, so slow lingering in one pose does not dominate. Checked
+   before the disturbance gate: a sample a full cell rejects costs no float.
+3. disturbance: once a provisional fit exists, a sample in a cell that holds
+   >= 3 samples whose calibrated |B| departs from the fitted field by more
+   than max(outlier_nt, 4 rms + 2 predicted error) is dropped; three in a row
+   make a disturbance, and the samples accepted in the second before it are
+   removed from the fit again (fit.remove is exact), and every sample is
+   rejected until |B| has stayed within a tenth of the gate for a second
+   (the dipole's 1/r^3 tail, tests/test_device_calibration.py).
+
+The accepted samples' last HIST stay in a ring (`hist`: x, y, z, sample index,
+cell): the back-off removes from it, and the session reads it for the
+residuals' correlation (session.py).
+"""
+
+import math
+from array import array
+
+HIST = 256           # recent accepted samples kept for removal (5 ints each)
+_RUN = 3             # consecutive outliers that make a disturbance
+_GATE_BITS = 14      # gate/cell arithmetic: |v| < 2**14, so |v|^2 sums stay < 2**30
+_G_SHIFT = 16        # rate gate: d^2 > (r^2 >> 16) * round(angle^2 * 2**16)
+_MAX_STRIDE = 64     # rate gate baseline, samples (0.64 s at 100 samples/s)
+
+
+def gate_dps(cfg):
+    """The rotation-rate gate: gate_rate_dps, or lower where the sensor's bandwidth lags."""
+    tau = 1.0 / (2.0 * math.pi * cfg["sensor_bandwidth_hz"])
+    field = cfg["field_nt"] or 50000.0
+    lag = math.sqrt(2.0 * cfg["lag_tol_nt"] / field) / tau * 180.0 / math.pi
+    return min(cfg["gate_rate_dps"], lag)
+
+
+def disturbance_limit(cfg, rms, predicted_error):
+    """The disturbance gate (nT) against a provisional fit of this residual and predicted error."""
+    return max(cfg["outlier_nt"], 4.0 * rms + 2.0 * predicted_error)
+
+
+class Gates:
+    def __init__(self, cfg, fit, cov, window, period_ms, centre):
+        self.fit = fit
+        self.cov = cov
+        # shift that brings a full-scale sum (window * 2**23 codes) below 2**14
+        sh = 0
+        while (window << 23) >> sh >= (1 << _GATE_BITS):
+            sh += 1
+        self._sh = sh
+        self._cx = centre[0] >> sh
+        self._cy = centre[1] >> sh
+        self._cz = centre[2] >> sh
+        self.seen = 0
+        self.rej_rate = 0
+        self.rej_dist = 0
+        self.rej_cap = 0
+        self.removed = 0
+        self.provisional = None
+        self.dist_limit = cfg["outlier_nt"]
+        self._cap = cfg["cell_cap"]
+        self._fresh = True          # no previous sample to compare with
+        self._dist_run = 0
+        self._hold = 0              # samples still to reject after a disturbance
+        self.hist = array("i", bytes(4 * 5 * HIST))  # x, y, z, sample index, cell
+        self.hist_n = 0
+        self.hist_i = 0
+        self.back = int(1000 / period_ms) + 1   # samples in one second (backoff)
+        self.gate_dps = gate_dps(cfg)
+        g = self.gate_dps * math.pi / 180.0 * period_ms / 1000.0
+        # compare with the sample `stride` back, so the allowed turn is >= 1/64 rad: a few
+        # steps of the 14-bit vectors (a slow sensor's gate is ~1e-3 rad per sample)
+        stride = 1
+        while g * stride < 0.016 and stride < _MAX_STRIDE:
+            stride += 1
+        self._stride = stride
+        self._ring = array("i", bytes(4 * 3 * stride))   # the last `stride` shifted samples
+        self._ri = 0
+        self._filled = 0
+        g = g * stride
+        self._g = max(1, int(g * g * (1 << _G_SHIFT) + 0.5))   # max squared turn angle per stride
+
+    def break_chain(self):
+        """Samples were lost: the next one has no neighbour to gate its turn rate against."""
+        self._fresh = True
+
+    def sample(self, sx, sy, sz):
+        """Gate one decimated sample; return True if it went into the fit."""
+        self.seen += 1
+        sh = self._sh
+        x = (sx >> sh) - self._cx
+        y = (sy >> sh) - self._cy
+        z = (sz >> sh) - self._cz
+        if self._fresh:
+            self._fresh = False
+            self._filled = 0
+        r = self._ring
+        i = self._ri * 3
+        dx = x - r[i]
+        dy = y - r[i + 1]
+        dz = z - r[i + 2]
+        r[i] = x
+        r[i + 1] = y
+        r[i + 2] = z
+        self._ri = (self._ri + 1) % self._stride
+        if self._filled < self._stride:
+            self._filled += 1
+            return False
+        # 1. rotation rate: chord^2 > angle^2 |r|^2, in small ints
+        if dx * dx + dy * dy + dz * dz > ((x * x + y * y + z * z) >> _G_SHIFT) * self._g:
+            self.rej_rate += 1
+            return False
+        if not (x or y or z):
+            self.rej_rate += 1   # no direction (a dead front end): nothing to place
+            return False
+        # 2. coverage cell cap
+        cov = self.cov
+        cell = cov.cell(x, y, z)
+        n = cov.count(cell)
+        if n >= self._cap:
+            self.rej_cap += 1
+            return False
+        # 3. disturbance, against the provisional fit, only where it interpolates:
+        # in a cell that already holds samples, and once its predicted error is
+        # well below the gate. A new orientation is never called a disturbance.
+        pc = self.provisional
+        if pc is not None and (n >= 3 or self._hold):
+            dev = abs(pc.magnitude(sx, sy, sz) - pc.field)
+            if dev > self.dist_limit:
+                self.rej_dist += 1
+                self._dist_run += 1
+                if self._dist_run == _RUN:
+                    self._backoff()   # a disturbance, not a lone outlier: its onset went in
+                    self._hold = self.back
+                return False
+            self._dist_run = 0
+            if self._hold:
+                # back-off: a dipole's 1/r^3 tail stays above the noise long after it
+                # falls under the gate; hold until it is under a tenth of the gate for 1 s
+                self.rej_dist += 1
+                if dev > 0.1 * self.dist_limit:
+                    self._hold = self.back
+                else:
+                    self._hold -= 1
+                return False
+        self.fit.add(sx, sy, sz)
+        cov.add_to(cell)
+        h = self.hist
+        i = self.hist_i * 5
+        h[i] = sx
+        h[i + 1] = sy
+        h[i + 2] = sz
+        h[i + 3] = self.seen
+        h[i + 4] = cell
+        self.hist_i = (self.hist_i + 1) % HIST
+        if self.hist_n < HIST:
+            self.hist_n += 1
+        return True
+
+    def _backoff(self):
+        """Remove samples accepted in the second before a disturbance was detected."""
+        h = self.hist
+        back = self.back
+        while self.hist_n:
+            j = (self.hist_i - 1) % HIST
+            i = j * 5
+            if self.seen - h[i + 3] > back:
+                break
+            self.fit.remove(h[i], h[i + 1], h[i + 2])
+            self.cov.remove_from(h[i + 4])
+            self.hist_i = j
+            self.hist_n -= 1
+            self.removed += 1

@@ -1,0 +1,271 @@
+"""One calibration session: samples through the gates into the fit, provisional solves, the finish.
+
+    s = Session(cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto")
+    s.sample(sx, sy, sz)           # each decimated sample (integer boxcar sums), through gates.py
+    s.tick(now_ms, diff)           # provisional solve every solve_every_s
+    s.ready()                      # coverage and predicted error reached
+    cal, reason, msg = s.finish()  # cal in ADC-code units, or (None, reason, msg)
+
+Kinds (start-cal quick|full|auto, docs/protocol.md): a full calibration fits
+all nine parameters; a quick re-calibration (shared/quick.py) keeps the shape
+of the calibration in force and fits its offsets and common gain from a
+partial rotation, auto-finishing at quick_min_coverage; auto (the button's
+short press) decides at the end: quick when a calibration is in force and the
+coverage stayed under min_coverage, else full.
+
+The fit runs on the full boxcar sums (units: code/window; exact integers:
+EllipsoidFit.add costs the same ~25 us on the unix port for 17- to 24-bit
+inputs, so shifting them would buy nothing); the accepted calibration is
+rescaled to ADC codes so it survives a change of window. Which samples go in is
+gates.py's; whether the result may be used, acceptance.py's (set-cal uses it too).
+"""
+
+import math
+
+from acceptance import QUICK, check_calibration
+from gates import HIST, Gates, disturbance_limit
+from shared.coverage import Coverage
+from shared.fit import EllipsoidFit, FitError
+
+FULL = "full"
+RESHAPED = "reshaped"     # a quick session whose data said the shape moved (shared/quick.py)
+AUTO = "auto"
+KINDS = (AUTO, FULL, QUICK)
+
+COLLECTING = "collecting"
+DONE = "done"
+FAILED = "failed"
+CANCELLED = "cancelled"
+
+_MIN_PROVISIONAL = 60
+# Gauss-Newton steps of a provisional solve. It only sets the disturbance gate and
+# says when coverage is enough; from the algebraic fit one step lands within 5e-5 nT
+# of the converged fit on a 40 % cap (identical with full coverage), and each further
+# step costs ~4M instructions on a Cortex-M (docs/firmware.md). The final solve converges.
+_PROVISIONAL_ITER = 1
+_MIN_PAIRS = 50      # consecutive residual pairs before their correlation counts
+_MAX_RHO = 0.999     # widening at most sqrt(1999) ~ 45x
+CLIP_FRACTION = 200   # more than 1 in 200 samples clipped refuses the calibration
+
+
+class Session:
+    def __init__(self, cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto"):
+        self.cfg = cfg
+        self.kind = kind if prior is not None else FULL   # no calibration in force: only a full one
+        self.window = window
+        # nT per sum unit, per axis
+        self.k = (scale[0] / window, scale[1] / window, scale[2] / window)
+        self.period_ms = period_ms
+        self.prior = prior.scaled_input(window) if prior is not None else None
+        self.fit = EllipsoidFit()
+        self.cov = Coverage(cfg["cells"], cfg["cell_cap"])
+        self.c = [int(v) for v in self.prior.offset] if self.prior is not None else [0, 0, 0]
+        self.gates = g = Gates(cfg, self.fit, self.cov, window, period_ms, self.c)
+        # bound once: the per-sample call allocates nothing
+        self.sample = g.sample
+        self.break_chain = g.break_chain
+        self.gate_dps = g.gate_dps
+        self.state = COLLECTING
+        self.started = now_ms
+        self.provisional_error = None
+        self.solves = 0             # provisional solves run
+        self.last_solve = now_ms
+        self._solve_ms = cfg["solve_every_s"] * 1000
+        self._max_ms = cfg["max_cal_s"] * 1000
+        self.reason = None
+        self.message = None
+        self.temp_sum = 0.0
+        self.temp_n = 0
+        self.clipped = 0            # samples at the ADC's full scale (screen.py; not fitted)
+        self.clip_axis = None
+        self._fast_mark = 0          # rej_rate / seen at the last progress report
+        self._seen_mark = 0
+        self.slow_down = False       # most samples of the last report turned too fast
+
+    def elapsed_s(self, now_ms, diff):
+        return diff(now_ms, self.started) / 1000.0
+
+    def timed_out(self, now_ms, diff):
+        return diff(now_ms, self.started) > self._max_ms
+
+    def residual_rho(self, cal):
+        """Lag-1 correlation of the residuals |h_c| - F of consecutive accepted samples among
+        the last HIST (the gates' removal history), against the final fit; None with too few pairs.
+
+        The fit's predicted error assumes independent residuals. A sensor that lags the
+        turn (a bandwidth set too high for it), a field that wanders or a flexing mount
+        leave residuals that follow each other from sample to sample; with their lag-1
+        correlation rho (AR(1)) the samples count as N (1 - rho) / (1 + rho), and finish()
+        widens the predicted error by sqrt((1 + rho) / (1 - rho)). Against the final fit,
+        not a provisional one: a provisional fit's own error, smooth in orientation, would
+        read as correlation when the turn is slow.
+        """
+        g = self.gates
+        h = g.hist
+        n = g.hist_n
+        first = (g.hist_i - n) % HIST
+        prev_i = -2
+        prev_r = 0.0
+        pairs = 0
+        s = ss = s1 = 0.0
+        for k in range(n):
+            j = ((first + k) % HIST) * 5
+            r = cal.magnitude(h[j], h[j + 1], h[j + 2]) - cal.field
+            i = h[j + 3]
+            if i == prev_i + 1:
+                pairs += 1
+                s += r + prev_r
+                ss += r * r + prev_r * prev_r
+                s1 += r * prev_r
+            prev_i = i
+            prev_r = r
+        if pairs < _MIN_PAIRS:
+            return None, pairs
+        m = s / (2 * pairs)
+        var = ss / (2 * pairs) - m * m
+        if not var > 0.0:
+            return None, pairs
+        return (s1 / pairs - m * m) / var, pairs
+
+    def add_temperature(self, celsius):
+        self.temp_sum += celsius
+        self.temp_n += 1
+
+    def quick(self):
+        """True if this session ends in a quick re-calibration (so far)."""
+        if self.kind == QUICK:
+            return True
+        return self.kind == AUTO and self.coverage() < self.cfg["min_coverage"]
+
+    def _solve(self, max_iter=60, final=False, independent=1.0):
+        # provisional solves of an auto session are full ones: it becomes quick only at the end
+        quick = self.kind == QUICK or (final and self.quick())
+        return self.fit.solve(field=None, prior=self.prior if quick else None, scale=self.k, max_iter=max_iter,
+                              refuse_worse=final, independent=independent)
+
+    def tick(self, now_ms, diff):
+        """Provisional solve every solve_every_s; returns True if one ran."""
+        if self.fit.n < _MIN_PROVISIONAL:
+            return False
+        if diff(now_ms, self.last_solve) < self._solve_ms:
+            return False
+        self.last_solve = now_ms
+        self.solves += 1
+        g = self.gates
+        try:
+            cal = self._solve(_PROVISIONAL_ITER)
+        except FitError:
+            self.provisional_error = None
+            return True
+        d = cal.diagnostics
+        pe = d.get("predicted_error")
+        self.provisional_error = pe
+        g.dist_limit = disturbance_limit(self.cfg, d.get("rms", 0.0), pe or 0.0)
+        # gate disturbances only with a fit good to a quarter of the gate
+        g.provisional = cal if (pe is not None and pe < 0.25 * g.dist_limit) else None
+        return True
+
+    def coverage(self):
+        return self.cov.fraction()
+
+    def ready(self):
+        pe = self.provisional_error
+        need = self.cfg["quick_min_coverage"] if self.kind == QUICK else self.cfg["min_coverage"]
+        return self.coverage() >= need and pe is not None and pe <= self.cfg["target_error_nt"]
+
+    def progress(self, report=False):
+        """The session's state; report: the once-a-second event, which also decides
+        slow_down from the samples since the last one."""
+        pe = self.provisional_error
+        g = self.gates
+        if report:
+            seen = g.seen - self._seen_mark
+            self.slow_down = seen > 0 and 2 * (g.rej_rate - self._fast_mark) > seen
+            self._fast_mark = g.rej_rate
+            self._seen_mark = g.seen
+        return {
+            "state": self.state,
+            "kind": self.kind,
+            "gate_dps": round(self.gate_dps, 1),
+            "slow_down": self.slow_down,
+            "n": self.fit.n,
+            "seen": g.seen,
+            "coverage": round(self.coverage(), 3),
+            "pred_nt": None if pe is None else round(pe, 3),
+            "rej_rate": g.rej_rate,
+            "rej_dist": g.rej_dist,
+            "rej_cap": g.rej_cap,
+            "removed": g.removed,
+            "clipped": self.clipped,
+            "ready": self.ready(),
+        }
+
+    def cancel(self):
+        self.state = CANCELLED
+        self.reason = "cancelled"
+        self.message = "cancelled by the operator"
+
+    def finish(self):
+        """Solve and check. Returns (cal in code units, None, None) or (None, reason, message)."""
+        # Clipping first: the orientations where the ADC saturates are missing from the fit
+        # and would be wrong in the survey, whatever the residual says.
+        if self.clipped * CLIP_FRACTION > self.gates.seen + self.clipped:
+            return self._fail("clipped", "%d samples hit the ADC's full scale%s: lower the PGA gain (gain_x/y/z)"
+                              " or keep magnets and iron away; the sensor saturates there"
+                              % (self.clipped, "" if self.clip_axis is None else " on " + "xyz"[self.clip_axis]))
+        try:
+            cal = self._solve(final=True)
+            d = cal.diagnostics
+            if d.get("mode") == RESHAPED or (d.get("mode") == QUICK and d.get("gains", 1) > 1):
+                # a quick one chose a bigger model by likelihood ratios, which correlated
+                # residuals inflate: solved again with the samples counted as independent
+                # (scaling the ratios down can only keep a smaller model, so the common-gain
+                # result stands as it is)
+                rho, pairs = self.residual_rho(cal)
+                if rho is not None and rho > 2.0 / math.sqrt(pairs):
+                    rho = min(rho, _MAX_RHO)
+                    cal = self._solve(final=True, independent=(1.0 - rho) / (1.0 + rho))
+        except FitError as e:
+            return self._fail_fast(e.reason, str(e))
+        self._widen(cal)
+        problem = self.check(cal)
+        if problem:
+            return self._fail_fast(problem[0], problem[1])
+        self.state = DONE
+        code_cal = cal.scaled_input(1.0 / self.window)
+        code_cal.diagnostics["coverage"] = round(self.coverage(), 4)
+        code_cal.meta["kind"] = cal.diagnostics.get("mode", FULL)
+        if self.temp_n:
+            code_cal.meta["temperature_c"] = round(self.temp_sum / self.temp_n, 2)
+        return code_cal, None, None
+
+    def _widen(self, cal):
+        # residuals correlated beyond chance (rho > 2 / sqrt(pairs)): fewer independent samples
+        d = cal.diagnostics
+        rho, pairs = self.residual_rho(cal)
+        if rho is None:
+            return
+        d["residual_rho"] = round(rho, 4)
+        if rho > 2.0 / math.sqrt(pairs) and d.get("predicted_error") is not None:
+            rho = min(rho, _MAX_RHO)
+            d["predicted_error_white"] = d["predicted_error"]
+            d["predicted_error"] = d["predicted_error"] * math.sqrt((1.0 + rho) / (1.0 - rho))
+
+    def _fail_fast(self, reason, message):
+        # most samples of a couple of seconds or more turned faster than the gate: that,
+        # not the coverage, is the reason (a session finished at once says too_few_samples)
+        g = self.gates
+        if g.seen >= 2 * g.back and g.rej_rate * 2 > g.seen and reason != "not_better":
+            return self._fail("too_fast", "%d of %d samples turned faster than %.0f deg/s (%s): turn slower"
+                              % (g.rej_rate, g.seen, self.gate_dps, message))
+        return self._fail(reason, message)
+
+    def _fail(self, reason, message):
+        self.state = FAILED
+        self.reason = reason
+        self.message = message
+        return None, reason, message
+
+    def check(self, cal):
+        """Acceptance thresholds (acceptance.py); (reason, message) for the first that fails, else None."""
+        return check_calibration(cal, self.cfg, self.k)
