@@ -17,11 +17,17 @@ circuitpython          CircuitPython's unix port with the board number     ../sh
 qemu-m3                bare-metal MicroPython on an emulated Cortex-M3     ../shared/micropython
                        (MPS2-AN385, soft single-precision floats), run
                        by qemu-system-arm (desktop/devicesim/qemu_board.py)
+rp2-pico               the rp2 port's RPI_PICO firmware.bin (Cortex-M0+,   ../shared/rp2
+                       single-precision floats) with its mpy-cross, the
+                       RP2040 boot ROM and rp2040js (npm, pinned in
+                       desktop/devicesim/pico/package-lock.json), run by
+                       desktop/devicesim/pico/runner.mjs
 =====================  ==================================================  ========================
 
-The recipes are ../shared/micropython/SOURCE.md's and ../shared/circuitpython/SOURCE.md's.
-The 32-bit builds need Debian's gcc-multilib, qemu-m3 gcc-arm-none-eabi,
-libnewlib-arm-none-eabi and qemu-system-arm (.ci/run installs them). A build that is
+The recipes are ../shared/micropython/SOURCE.md's, ../shared/circuitpython/SOURCE.md's and
+../shared/rp2/SOURCE.md's. The 32-bit builds need Debian's gcc-multilib, qemu-m3 gcc-arm-none-eabi,
+libnewlib-arm-none-eabi and qemu-system-arm, rp2-pico also libstdc++-arm-none-eabi-newlib, cmake,
+nodejs and npm (.ci/run installs them). A build that is
 impossible on this machine is reported in one line; the others still build.
 """
 
@@ -39,7 +45,7 @@ BUILD = os.path.join(REPO, "build", "interpreters")
 
 # significant bits of the float type each interpreter computes in
 FLOAT_BITS = {"micropython": 53, "micropython-float32": 24, "micropython-reprc": 22, "circuitpython": 22,
-              "qemu-m3": 24}
+              "qemu-m3": 24, "rp2-pico": 24}
 UNIX = ("micropython", "micropython-float32", "micropython-reprc", "circuitpython")
 
 _MP_COMMON = ["VARIANT=standard", "MICROPY_PY_BTREE=0", "MICROPY_PY_SSL=0", "MICROPY_SSL_MBEDTLS=0",
@@ -62,7 +68,14 @@ RECIPES = {
     "qemu-m3": ("micropython/micropython-*-src.tar.gz", "ports/qemu",
                 ["BOARD=MPS2_AN385", "FROZEN_MANIFEST="],
                 "ports/qemu/build-MPS2_AN385/firmware.elf", ("arm-none-eabi-gcc", "qemu-system-arm")),
+    # configured with cmake into build/interpreters/rp2-pico/cmake; PICO_NO_PICOTOOL: the SDK
+    # would download picotool for a .uf2 we do not need (the .bin is the same image)
+    "rp2-pico": ("rp2/micropython-*-rp2-src.tar.xz", "ports/rp2",
+                 ["-DPICO_BUILD_DOCS=0", "-DMICROPY_BOARD=RPI_PICO", "-DPICO_NO_PICOTOOL=1"],
+                 "firmware.bin", ("arm-none-eabi-gcc", "arm-none-eabi-g++ <cstdlib>", "cmake", "node", "npm")),
 }
+PICO_NPM = os.path.join(REPO, "desktop", "devicesim", "pico")     # package.json + package-lock.json
+BOOTROM = os.path.join(SHARED, "rp2", "rp2040-bootrom-B1.bin")
 
 
 def _tool(name):
@@ -99,8 +112,23 @@ def interpreter(name):
     return path if os.path.exists(path) and _stamp_ok(name) else None
 
 
+def pico_parts():
+    """The emulated Pico's parts, built by build("rp2-pico"), as a dict (firmware, bootrom,
+    node_modules, mpy_cross: paths), or None if it is not built."""
+    firmware = interpreter("rp2-pico")
+    if firmware is None:
+        return None
+    out = os.path.dirname(firmware)
+    return {"firmware": firmware, "bootrom": os.path.join(out, os.path.basename(BOOTROM)),
+            "node_modules": os.path.join(out, "node", "node_modules"), "mpy_cross": os.path.join(out, "mpy-cross")}
+
+
 def _stamp(name):
-    return repr(RECIPES[name]) + " " + " ".join(sorted(os.path.basename(p) for p in _tarballs(name)))
+    stamp = repr(RECIPES[name]) + " " + " ".join(sorted(os.path.basename(p) for p in _tarballs(name)))
+    if name == "rp2-pico":     # a new pin of rp2040js reinstalls it
+        with open(os.path.join(PICO_NPM, "package-lock.json")) as fh:
+            stamp += " " + fh.read()
+    return stamp
 
 
 def _stamp_ok(name):
@@ -123,6 +151,11 @@ def _missing_tools(name):
                                capture_output=True, text=True)
             if r.returncode:
                 missing.append("gcc -m32 (Debian's gcc-multilib)")
+        elif need == "arm-none-eabi-g++ <cstdlib>":     # the SDK's new_delete.cpp includes it
+            r = subprocess.run(["arm-none-eabi-g++", "-x", "c++", "-fsyntax-only", "-"], input="#include <cstdlib>\n",
+                               capture_output=True, text=True) if shutil.which("arm-none-eabi-g++") else None
+            if r is None or r.returncode:
+                missing.append("<cstdlib> for arm-none-eabi-g++ (Debian's libstdc++-arm-none-eabi-newlib)")
         elif shutil.which(need) is None:
             missing.append(need)
     return missing
@@ -154,12 +187,23 @@ def build(name, log=print):
         # the version header wants git tags unless CP_VERSION is set; GIT_DIR keeps it out of
         # an enclosing repository (../shared/circuitpython/SOURCE.md)
         env.update(CP_VERSION="10.3.0-alpha.4-185-gcd3da4a5d8", GIT_DIR="/nonexistent")
-    if name == "qemu-m3":
+    if name == "rp2-pico":     # the banner from the tree's version, not the enclosing repository's commit
+        env.update(GIT_DIR="/nonexistent")
+    out = os.path.join(BUILD, name)
+    if name in ("qemu-m3", "rp2-pico"):
         steps = [["make", "-j2", "-C", os.path.join(src, "mpy-cross")]]
     else:
         steps = []
-    steps.append(["make", "-j2", "-C", os.path.join(src, RECIPES[name][1])] + RECIPES[name][2])
-    out = os.path.join(BUILD, name)
+    if name == "rp2-pico":
+        steps += [["cmake", "-S", os.path.join(src, RECIPES[name][1]), "-B", os.path.join(out, "cmake")] + RECIPES[name][2],
+                  ["make", "-j2", "-C", os.path.join(out, "cmake")],
+                  # the real path: with build/ a symlink npm takes the folder for a linked package
+                  ["npm", "ci", "--no-audit", "--no-fund", "--prefix", os.path.realpath(os.path.join(out, "node"))]]
+        os.makedirs(os.path.join(out, "node"), exist_ok=True)
+        for pinned in ("package.json", "package-lock.json"):
+            shutil.copy2(os.path.join(PICO_NPM, pinned), os.path.join(out, "node", pinned))
+    else:
+        steps.append(["make", "-j2", "-C", os.path.join(src, RECIPES[name][1])] + RECIPES[name][2])
     os.makedirs(out, exist_ok=True)
     with open(os.path.join(out, "build.log"), "w") as logfile:
         for cmd in steps:
@@ -168,7 +212,12 @@ def build(name, log=print):
                 log("%-20s failed: %s exited %d (see %s)" % (name, " ".join(cmd[:4]), r.returncode,
                                                              os.path.relpath(logfile.name, REPO)))
                 return None
-    shutil.copy2(os.path.join(src, RECIPES[name][3]), _product(name))
+    if name == "rp2-pico":     # the image, the mpy-cross of the same tree and the boot ROM side by side
+        shutil.copy2(os.path.join(out, "cmake", "firmware.bin"), _product(name))
+        shutil.copy2(os.path.join(src, "mpy-cross", "build", "mpy-cross"), os.path.join(out, "mpy-cross"))
+        shutil.copyfile(BOOTROM, os.path.join(out, os.path.basename(BOOTROM)))   # not its read-only mode
+    else:
+        shutil.copy2(os.path.join(src, RECIPES[name][3]), _product(name))
     with open(os.path.join(out, "recipe"), "w") as fh:
         fh.write(_stamp(name))
     log("%-20s built   %s" % (name, os.path.relpath(_product(name), REPO)))

@@ -1,0 +1,250 @@
+// An emulated Raspberry Pi Pico: MicroPython's rp2 firmware in rp2040js, with its flash in a file.
+//
+//   node runner.mjs --modules NODE_MODULES --firmware firmware.bin --bootrom rp2040-bootrom-B1.bin
+//                   --flash pico.flash [--idle paced|jump] [--high 15,21] [--world R,W]
+//
+// NODE_MODULES holds rp2040js (npm ci under build/, desktop/firmware/interpreters.py); --high:
+// the GPIOs the host holds high from power-on (pull-ups are not modelled); --world: the simulated
+// chips, button and LED on the pins, over fds R (from the world) and W (to it): pins.mjs.
+//
+// stdin is what the host sends on the board's USB CDC, stdout what the board sends back (the
+// Python side, desktop/devicesim/pico_board.py, puts them on a pseudo-terminal); stderr carries
+// one line per event ("pico: ..."). EOF on stdin, SIGTERM or SIGINT save the flash and exit;
+// SIGUSR2 is a power cycle (the chip re-created with its flash).
+//
+// What stock rp2040js 1.4.1 needs from a runner (../shared/rp2/SOURCE.md, "Four things"):
+//  1. USB OUT: its USBCDC answers every armed host-to-board buffer at once with an empty packet
+//     (an interrupt every ~10 us, Python 3x slower); here the transfer is held until the host has bytes.
+//  2. Simulator.execute spins when the core sleeps with nothing pending; this loop yields to Node.
+//  3. Idle time is either paced to the wall clock (--idle paced: a person, mpremote's 1 s polls)
+//     or jumped to the next timer (--idle jump: tests and benches).
+//  4. The watchdog (machine.reset() uses it) has no reset action: the chip is re-created here.
+// The flash is made writable by patching the boot ROM's flash_range_erase / flash_range_program
+// to BKPT and doing the erase (fill 0xff) and program (AND, as NOR flash) in onBreak.
+import fs from 'node:fs';
+import path from 'node:path';
+import { pathToFileURL } from 'node:url';
+
+const FLASH_SIZE = 2 * 1024 * 1024;      // RPI_PICO's W25Q16: firmware, then littlefs from 0xa0000
+const FLASH_BASE = 0x10000000;
+const FS_OFFSET = 0xa0000, FS_BLOCK = 4096;  // RPI_PICO's filesystem: 1408 KiB of 4 KiB blocks
+const CYCLE_NS = 8;                      // 125 MHz
+const BATCH = 20000;                     // instructions between looks at the host and the wall clock
+const SLICE_MS = 20;                     // longest run without yielding to Node (host bytes, signals)
+const LAG_NS = 50e6;                     // paced: emulated time may trail the wall clock by this much
+const BKPT_ERASE = 0x01, BKPT_PROGRAM = 0x02;
+
+const args = Object.fromEntries(process.argv.slice(2).reduce((acc, a, i, all) =>
+  (a.startsWith('--') ? acc.concat([[a.slice(2), all[i + 1]]]) : acc), []));
+const idleMode = args.idle || 'paced';
+const say = (msg) => process.stderr.write(`pico: ${msg}\n`);
+const esm = (file) => import(pathToFileURL(path.join(args.modules, 'rp2040js', 'dist', 'esm', file)).href);
+const { RP2040, USBCDC } = await esm('index.js');
+const { SimulationClock } = await esm('clock/simulation-clock.js');
+const { WorldBridge } = args.world ? await import('./pins.mjs') : {};
+
+// ****** the flash file: the whole 2 MiB, firmware image rewritten at each start ******
+function loadFlash() {
+  const image = new Uint8Array(FLASH_SIZE).fill(0xff);
+  let kept = null;
+  try { kept = fs.readFileSync(args.flash); } catch { /* a new board: empty flash */ }
+  if (kept && kept.length !== FLASH_SIZE) {
+    say(`flash file ${args.flash} is ${kept.length} bytes, not ${FLASH_SIZE}: the rest reads as erased`);
+  }
+  if (kept) image.set(kept.subarray(0, FLASH_SIZE));
+  if (kept && !hasLittlefs(image)) {
+    say(`flash file ${args.flash} holds no littlefs at 0x${FS_OFFSET.toString(16)}: the firmware formats it at boot`);
+  }
+  const firmware = fs.readFileSync(args.firmware);
+  image.fill(0xff, 0, FS_OFFSET);          // the firmware's region, then the image itself
+  image.set(firmware, 0);
+  return image;
+}
+
+// littlefs keeps its superblock in blocks 0 and 1, the name "littlefs" 8 bytes into the block
+function hasLittlefs(image) {
+  const magic = Buffer.from('littlefs');
+  return [0, FS_BLOCK].some((b) => Buffer.from(image.subarray(FS_OFFSET + b + 8, FS_OFFSET + b + 16)).equals(magic));
+}
+
+let flash = loadFlash();
+let saveTimer = null;
+function saveFlash() {                   // atomic: the old file stays until the new one is whole
+  if (saveTimer) { clearTimeout(saveTimer); saveTimer = null; }
+  fs.writeFileSync(args.flash + '.tmp', flash);
+  fs.renameSync(args.flash + '.tmp', args.flash);
+}
+function saveSoon() {                    // one save per batch of erases/programs, not per page
+  if (!saveTimer) saveTimer = setTimeout(saveFlash, 100);
+}
+
+// ****** the boot ROM, its flash write functions turned into breakpoints ******
+function patchedBootrom() {
+  const rom = Buffer.from(fs.readFileSync(args.bootrom));
+  const table = rom.readUInt16LE(0x14);  // rom_func_table: (code, address) pairs of uint16, 0-ended
+  const want = { RE: BKPT_ERASE, RP: BKPT_PROGRAM };
+  for (let p = table; rom.readUInt16LE(p) !== 0; p += 4) {
+    const code = String.fromCharCode(rom[p], rom[p + 1]);
+    if (code in want) {
+      const fn = rom.readUInt16LE(p + 2) & ~1;  // Thumb bit off
+      rom.writeUInt16LE(0xbe00 | want[code], fn);  // BKPT #n
+      rom.writeUInt16LE(0x4770, fn + 2);            // BX LR
+      delete want[code];
+    }
+  }
+  if (Object.keys(want).length) throw new Error(`boot ROM ${args.bootrom} lacks ${Object.keys(want)}`);
+  return new Uint32Array(rom.buffer, rom.byteOffset, rom.length / 4);
+}
+const bootrom = patchedBootrom();
+
+// ****** the host's bytes, held until the board arms a USB OUT buffer (thing 1) ******
+const fromHost = [];                     // Buffers not yet handed to the board
+let pendingOut = null;                   // the size of the OUT buffer the board armed, or null
+let mcu, cdc, clock, resetAsked = null;
+
+function offerHostBytes() {
+  if (pendingOut === null || fromHost.length === 0 || cdc.outEndpoint < 0) return;
+  const out = new Uint8Array(pendingOut);
+  let n = 0;
+  while (n < out.length && fromHost.length) {
+    const head = fromHost[0];
+    const take = Math.min(head.length, out.length - n);
+    out.set(head.subarray(0, take), n);
+    n += take;
+    if (take === head.length) fromHost.shift(); else fromHost[0] = head.subarray(take);
+  }
+  pendingOut = null;
+  mcu.usbCtrl.endpointReadDone(cdc.outEndpoint, out.subarray(0, n));
+}
+
+function createChip(why) {
+  clock = new SimulationClock(125e6);
+  mcu = new RP2040(clock);
+  mcu.logger = {
+    debug() {}, info() {},
+    // noise: one core is emulated (core 1's FIFO at SIO 0x50/0x58, SOURCE.md); the XIP cache's
+    // control registers (0x14000000, flushed after each flash write) and the clock, syscfg and
+    // voltage-regulator registers MicroPython sets up at boot are not modelled
+    warn(name, msg) { if (!/^Unimplemented peripheral/.test(msg)) say(`${name}: ${msg}`); },
+    error(name, msg) { if (!/invalid SIO address 0x5[08]|address:? 1400[02]00[04]/.test(msg)) say(`${name}: ${msg}`); },
+  };
+  mcu.loadBootrom(bootrom);              // this resets the chip, which erases its flash: load it after
+  mcu.flash.set(flash);
+  flash = mcu.flash.subarray(0, FLASH_SIZE);
+  // start at the image's boot2, as the boot ROM does once it has found it in flash (the ROM's
+  // own start-up waits on things rp2040js does not model; its functions are still called)
+  mcu.core.PC = FLASH_BASE;
+  mcu.onBreak = (code) => flashOp(code);
+  mcu.peripherals[0x40058].onWatchdogTrigger = () => { resetAsked = 'watchdog'; };
+  cdc = new USBCDC(mcu.usbCtrl);
+  cdc.onSerialData = (bytes) => process.stdout.write(Buffer.from(bytes));
+  pendingOut = null;
+  const armed = mcu.usbCtrl.onEndpointRead;
+  mcu.usbCtrl.onEndpointRead = (endpoint, size) => {
+    if (endpoint !== cdc.outEndpoint) return armed(endpoint, size);
+    pendingOut = size;
+    offerHostBytes();
+  };
+  // power on: the bus hands every GPIO's input its idle level before the firmware runs
+  for (const [pin, level] of Object.entries(inputLevels)) mcu.gpio[pin].setInputValue(level);
+  anchor();
+  say(`boot (${why})`);
+  if (world) world.attach(mcu, clock);
+}
+
+// the boot ROM's flash_range_erase(addr, count, block_size, cmd) and
+// flash_range_program(addr, data, count), called with r0.. as arguments; addr is a flash offset
+function flashOp(code) {
+  const r = mcu.core.registers;
+  if (code === BKPT_ERASE) {
+    flash.fill(0xff, r[0], r[0] + r[1]);
+  } else if (code === BKPT_PROGRAM) {
+    const [addr, data, count] = [r[0], r[1], r[2]];
+    for (let i = 0; i < count; i++) flash[addr + i] &= mcu.readUint8(data + i);
+  } else {
+    say(`breakpoint ${code} at 0x${(mcu.core.PC - 2).toString(16)}: the firmware stopped`);
+    return;
+  }
+  saveSoon();
+}
+
+// ****** the pins the host drives (the button, DRDY...): level kept across resets ******
+const inputLevels = {};
+for (const pin of (args.high || '').split(',').filter(Boolean)) inputLevels[pin] = true;
+
+// ****** the loop: run, yield, idle (things 2 and 3) ******
+let anchorWall = 0, anchorEmu = 0, idleTimer = null, sleeping = false, paused = false, scheduled = false;
+const world = args.world ? new WorldBridge(...args.world.split(',').map(Number), {
+  pause() { paused = true; },
+  resume() { paused = false; wake(); },
+}) : null;
+function anchor() { anchorWall = performance.now(); anchorEmu = clock.nanos; }
+function wallNanos() { return anchorEmu + (performance.now() - anchorWall) * 1e6; }
+
+function run() {
+  idleTimer = null;
+  sleeping = false;
+  scheduled = false;
+  const until = performance.now() + SLICE_MS;
+  while (performance.now() < until && !paused) {
+    if (resetAsked) {                    // thing 4: machine.reset() and the watchdog
+      const why = resetAsked;
+      resetAsked = null;
+      createChip(why);
+    }
+    const core = mcu.core;
+    for (let i = 0; i < BATCH && !resetAsked && !paused; i++) {
+      if (!core.waiting) {
+        clock.tick(core.executeInstruction() * CYCLE_NS);
+        continue;
+      }
+      if (!clock.nextAlarm) {            // asleep with nothing due: wait for the host
+        if (idleMode === 'paced') clock.tick(Math.max(0, wallNanos() - clock.nanos));
+        sleeping = true;
+        world?.flush();
+        return;
+      }
+      const due = clock.nextAlarm.nanos;
+      if (idleMode === 'paced') {
+        const wall = wallNanos();
+        if (wall - clock.nanos > LAG_NS) { anchorEmu = clock.nanos; anchorWall = performance.now(); }
+        else if (due > wall) {           // spend the idle time as wall time
+          idleTimer = setTimeout(run, Math.min(SLICE_MS, (due - wall) / 1e6));
+          world?.flush();
+          return;
+        }
+      }
+      clock.tick(due - clock.nanos);
+    }
+  }
+  world?.flush();
+  if (!paused) schedule();              // else the world's answer resumes it
+}
+
+function schedule() {
+  if (!scheduled) { scheduled = true; setImmediate(run); }
+}
+
+// the host (or a pin) has news for a board that waits: run now
+function wake() {
+  if (idleTimer) { clearTimeout(idleTimer); idleTimer = null; }
+  sleeping = false;
+  if (!paused) schedule();              // a spare run() only looks again and returns
+}
+
+function quit(code) {
+  saveFlash();
+  process.exit(code);
+}
+
+process.stdin.on('data', (chunk) => { fromHost.push(chunk); offerHostBytes(); wake(); });
+process.stdin.on('end', () => quit(0));
+process.on('SIGTERM', () => quit(0));
+process.on('SIGINT', () => quit(0));
+process.on('SIGUSR2', () => { saveFlash(); createChip('power cycle'); wake(); });
+process.stdout.on('error', () => quit(0));   // the host side is gone
+
+createChip('power on');
+schedule();
+// PICO_DEBUG=1: where the core is, once a wall second (a firmware that hangs, a wait that never ends)
+if (process.env.PICO_DEBUG) setInterval(() => say(`t=${(clock.nanos / 1e9).toFixed(4)} pc=0x${mcu.core.PC.toString(16)} waiting=${mcu.core.waiting} sleeping=${sleeping} pendingOut=${pendingOut} ep=${cdc.outEndpoint} alarm=${!!clock.nextAlarm}`), 1000);

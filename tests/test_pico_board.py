@@ -1,0 +1,112 @@
+"""The emulated Pico (desktop/devicesim/pico_board.py): MicroPython's rp2 firmware in rp2040js,
+reached with the real mpremote over a pseudo-terminal, its flash kept in a file.
+
+The runner idles by jumping to the next timer (idle="jump") except where mpremote's own wall-clock
+polls need idle time spent as wall time.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from desktop.firmware.mpy import ARCHS
+from tests.interpreters import need
+
+MPREMOTE = [sys.executable, "-m", "mpremote"]
+FLASH = 2 * 1024 * 1024       # RPI_PICO's flash
+FS_OFFSET = 0xA0000           # its littlefs partition (ports/rp2/boards/RPI_PICO)
+
+
+@pytest.fixture
+def pico(tmp_path):
+    need("rp2-pico")
+    from desktop.devicesim.pico_board import PicoBoard
+
+    boards = []
+
+    def start(flash=None, idle="jump"):
+        board = PicoBoard(flash or str(tmp_path / "pico.flash"), idle=idle).start()
+        boards.append(board)
+        return board
+
+    yield start
+    for b in boards:
+        b.close()
+
+
+def mpremote(port, *args, timeout=120):
+    r = subprocess.run(MPREMOTE + ["connect", port] + list(args), capture_output=True, text=True, timeout=timeout)
+    assert r.returncode == 0, r.stdout + r.stderr
+    return r.stdout
+
+
+def test_boots_the_rp2_firmware_on_an_armv6m_core(pico):
+    board = pico()
+    out = mpremote(board.port, "exec", "import sys, gc; print(sys.platform, sys.implementation._machine);"
+                   "print(sys.implementation._mpy >> 10, gc.mem_free() > 200000)")
+    assert "rp2 Raspberry Pi Pico with RP2040" in out
+    arch, heap_ok = out.split()[-2:]
+    assert ARCHS[int(arch)] == "armv6m" and heap_ok == "True", out   # _mpy's bits 10..: the native code
+
+
+def test_files_survive_machine_reset_and_a_restart_of_the_emulator(pico, tmp_path):
+    flash = str(tmp_path / "pico.flash")
+    src = tmp_path / "note.txt"
+    src.write_text("kept in flash\n")
+    board = pico(flash)
+    mpremote(board.port, "fs", "cp", str(src), ":note.txt")
+    n = len(board.events)
+    mpremote(board.port, "reset")                  # machine.reset(): the watchdog, the chip re-created
+    board.wait_event("boot (watchdog)", after=n)
+    assert mpremote(board.port, "fs", "cat", ":note.txt").strip() == "kept in flash"
+    board.close()
+    assert os.path.getsize(flash) == FLASH
+    board = pico(flash)                                                   # a new runner, the same file
+    assert mpremote(board.port, "fs", "cat", ":note.txt").strip() == "kept in flash"
+
+
+@pytest.mark.parametrize("damage", ["truncated", "garbage"])
+def test_a_damaged_flash_file_comes_up_formatted_and_says_so(pico, tmp_path, damage):
+    flash = tmp_path / "pico.flash"
+    rng = __import__("random").Random(1)
+    if damage == "truncated":
+        flash.write_bytes(b"\xff" * 4096)          # cut short: the rest reads as erased flash
+        said = "is 4096 bytes, not %d" % FLASH
+    else:                                          # noise over the whole filesystem
+        flash.write_bytes(b"\xff" * FS_OFFSET + bytes(rng.getrandbits(8) for _ in range(FLASH - FS_OFFSET)))
+        said = "holds no littlefs"
+    board = pico(str(flash))
+    board.wait_event(said, timeout=10)
+    out = mpremote(board.port, "exec", "import os; open('x', 'w').write('ok'); print(os.listdir())")
+    assert "['x']" in out
+    assert board.running()
+
+
+def test_the_emulator_killed_mid_stream_hangs_up_the_port_and_leaves_no_process(pico):
+    serial = pytest.importorskip("serial")
+    board = pico()
+    mpremote(board.port, "exec", "print('up')")
+    with serial.Serial(board.port, timeout=5) as s:
+        s.write(b"\x03\x02")                       # to the friendly REPL
+        s.write(b"while True: print('x' * 60)\r\r")       # a blank line ends the loop's block
+        assert b"x" * 60 in s.read(400)
+        os.killpg(board.proc.pid, signal.SIGKILL)
+        t0 = time.monotonic()
+        with pytest.raises(serial.SerialException):
+            while time.monotonic() - t0 < 5:
+                s.read(4096)
+    board.wait_event("stopped", timeout=5)
+    with pytest.raises(ProcessLookupError):
+        os.killpg(board.proc.pid, 0)
+
+
+def test_close_ends_the_runner_and_its_process_group(pico):
+    board = pico()
+    pid = board.proc.pid
+    board.close()
+    with pytest.raises(ProcessLookupError):
+        os.killpg(pid, 0)
