@@ -225,8 +225,8 @@ def test_two_chips_on_one_bus_follow_the_shared_clock(batch, temp_c):
         rows.append(row)
     assert hw.chips[0].tick == hw.chips[1].tick
     _, _, adc_a, adc_b = sc.rngs()
-    ref = [convert(c._volts, hw.grid["temp"], A.Config(c.registers), n=100, rng=rng, step=c._step,
-                     first_tick=c.start_tick + A.SETTLE_TICKS[3], grid_tick0=c._grid_tick0,
+    ref = [convert(c.analog.volts, hw.grid["temp"], A.Config(c.registers), n=100, rng=rng, step=c.analog.step,
+                     first_tick=c.start_tick + A.SETTLE_TICKS[3], grid_tick0=c.analog.grid_tick0,
                      vref_tempco=c.vref_tempco)
            for c, rng in zip(hw.chips, (adc_a, adc_b))]
     assert np.array_equal(np.array(rows), np.concatenate(ref, axis=1))

@@ -227,7 +227,7 @@ def drift_bus(rate, seconds, switch_at=None, noise=False):
     end = int((0.05 + seconds) * A.F_MOD)
     switched = switch_at is None
     while True:
-        nxt = min(c._next_drdy for c in (a, b))
+        nxt = min(c.schedule.next_drdy for c in (a, b))
         if nxt > end:
             break
         if not switched and nxt > int((0.05 + switch_at) * A.F_MOD):
@@ -264,7 +264,7 @@ def test_clock_drift_slips_the_conversions_by_the_rate(rate):
     assert np.all(np.abs(slip - expected) <= 1 / A.F_MOD)        # within the whole-tick rounding
     assert abs(slip[-1]) > 0.019
     # the data follow the chip's own DRDY times: on a ramp the codes slip with them
-    ref = convert(b._volts, None, b.config, ticks=tb, rng=NO_NOISE, step=b._step, grid_tick0=b._grid_tick0)
+    ref = convert(b.analog.volts, None, b.config, ticks=tb, rng=NO_NOISE, step=b.analog.step, grid_tick0=b.analog.grid_tick0)
     assert np.array_equal(cb, ref[:, 0])
     codes_per_tick = 0.1 / A.F_MOD * A.FULL_SCALE_CODE / A.VREF_LOW
     assert np.all(np.abs((cb[:common] - ca[:common]) - slip * A.F_MOD * codes_per_tick) <= 2.0)
@@ -282,7 +282,7 @@ def test_clock_drift_switched_on_and_off_mid_run():
     k = np.arange(1, len(after) + 1)
     assert np.array_equal(after, pending + np.ceil(k * D / (1 + rate) - 1e-9).astype(int))
     b.set_fault(None)
-    t0 = b._next_drdy
+    t0 = b.schedule.next_drdy
     ticks = []
     for _ in range(50):
         bus.wait_drdy(1)

@@ -73,9 +73,9 @@ def fidelity(seconds=2.0, rate_code=5):
     ref = []
     for i, s in zip((0, 1), seq[1:]):
         chip = hw.chips[i]
-        ref.append(convert(chip._volts, hw.grid["temp"], A.Config(chip.registers),
+        ref.append(convert(chip.analog.volts, hw.grid["temp"], A.Config(chip.registers),
                              first_tick=chip.start_tick + A.SETTLE_TICKS[rate_code], n=n,
-                             rng=np.random.default_rng(s), step=chip._step, grid_tick0=chip._grid_tick0))
+                             rng=np.random.default_rng(s), step=chip.analog.step, grid_tick0=chip.analog.grid_tick0))
     ref = np.concatenate(ref, axis=1)
     ok_status = int(np.sum(status >> 20 == 0xC))
     return n, int(np.sum(codes != ref)), ok_status, 2 * n, dt, hw.chips[0].violations + hw.chips[1].violations

@@ -162,7 +162,7 @@ class World:
     def idle(self, max_us=0, advance=True):
         """Advance to the next DRDY edge of chip 0 (or the next scripted event, or the budget),
         at most SYSTICK_S: a core waiting for an interrupt wakes on its 1 ms tick, so a DRDY
-        that never comes (a dead chip, ads1292/chip.py faults) does not stop the main loop.
+        that never comes (a dead chip, ads1292/faults.py) does not stop the main loop.
 
         max_us > 0: a charged main-loop stall in IRQ mode (hal_sim.Board.busy):
         return at the next DRDY or after max_us, whatever the run budget says,
@@ -176,7 +176,7 @@ class World:
         flags = 0
         if advance and limit > t:
             c0 = self._c0
-            if self.start_level and c0._next_drdy is not None:
+            if self.start_level and c0.schedule.next_drdy is not None:
                 self._ahead(limit - t)
                 try:        # DRDY of chip 0 is wired to the MCU; the others follow in _sync
                     c0.advance_to_tick(c0.next_drdy_tick(limit - t))

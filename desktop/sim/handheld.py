@@ -40,13 +40,13 @@ class Handheld:
         Chip time (s) at which the scenario's motion begins (the firmware boots
         first; before t0 the sensor holds its first attitude).
     fault : (str or None, str or None)
-        Fault injection for chip A and chip B (see ads1292/chip.py FAULTS);
+        Fault injection for chip A and chip B (see ads1292/faults.py FAULTS);
         :meth:`set_fault` switches one at run time.
     chip_ids : (int, int)
         ID register values of chip A and chip B.
     batch : int
-        Conversions each chip computes per vectorised call (ads1292/chip.py
-        ADS1292 `batch`; also settable later as ``chip.batch``). The codes do not
+        Conversions each chip computes per vectorised call (ads1292/analog.py
+        AnalogInput `batch`; also settable later as ``chip.batch``). The codes do not
         depend on it; 512 makes the byte-level path ~15x faster.
     operator : desktop.sim.operator.LiveOperator or None
         A live operator instead of the scenario's scripted motion (implies chunked).
@@ -130,7 +130,7 @@ class Handheld:
         self.ahead_until = self.t0 - ahead + (end - int(0.5 * ahead * rate) - 2) / rate
 
     def set_fault(self, chip, fault, rate=None):
-        """Inject `fault` (ads1292/chip.py FAULTS; None clears it) into chip `chip` (0: A,
+        """Inject `fault` (ads1292/faults.py FAULTS; None clears it) into chip `chip` (0: A,
         1: B) from the current simulated time on; `rate` as ADS1292.set_fault (per frame,
         per bit, or the clock's relative error for "clock-drift")."""
         c = self.chips[chip]

@@ -93,7 +93,7 @@ def convert(volts, temp_c, cfg, *, first_tick=None, n=None, rng, step=8, grid_ti
         Number of conversions.
     ticks : (n,) int array or None
         Instead of `first_tick` and `n`: the DRDY tick of each conversion, in
-        any spacing (a chip whose clock drifts, chip.py); each is the sinc3 of
+        any spacing (a chip whose clock drifts, clock.py); each is the sinc3 of
         nominal length ending at its tick.
     rng : numpy.random.Generator
         Draws the ADC's input-referred noise, (n, 2) normals in conversion order.
