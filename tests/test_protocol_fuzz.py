@@ -1,9 +1,10 @@
 """The command parser fuzzed on the real `micropython` over a pseudo-terminal (issue 10).
 
-desktop/bench/fuzz.py holds the grammar (commands from device/commands.py's TABLE with
-generated arguments, set-cal records mutated field by field, config keys of
-device/config.py's SCHEMA with generated values, bytes, long lines, floods) and the
-harness: one firmware over a pty, and after each case, the properties:
+desktop/bench/fuzz_grammar.py holds the grammar (commands from device/commands.py's TABLE
+with generated arguments, set-cal records mutated field by field, config keys of
+device/config.py's SCHEMA with generated values, bytes, long lines, floods) and
+desktop/bench/fuzz_harness.py the harness: one firmware over a pty, and after each case,
+the properties:
 
 - every request line gets exactly one reply line (ok true, or ok false with an error
   code and a message; never internal_error), nothing but JSON on the line;
@@ -21,7 +22,8 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from desktop.bench import fuzz
+from desktop.bench import fuzz_grammar as grammar
+from desktop.bench.fuzz_harness import Harness
 
 
 class HypothesisDraw:
@@ -51,7 +53,7 @@ class HypothesisDraw:
 
 @pytest.fixture(scope="module")
 def harness(tmp_path_factory, micropython):
-    h = fuzz.Harness(str(tmp_path_factory.mktemp("fuzz")), kind="micropython")
+    h = Harness(str(tmp_path_factory.mktemp("fuzz")), kind="micropython")
     yield h
     h.close()
 
@@ -72,7 +74,7 @@ FUZZ = settings(max_examples=300, deadline=None, derandomize=True, database=None
 def test_fuzz_commands_with_generated_arguments(harness, data):
     """Every command of the table but repl, its arguments JSON of any kind (deep, huge,
     NaN and Infinity spelled out), bare words, padding."""
-    run_case(harness, fuzz.case(HypothesisDraw(data), "command"))
+    run_case(harness, grammar.case(HypothesisDraw(data), "command"))
 
 
 @settings(FUZZ, max_examples=500)
@@ -81,7 +83,7 @@ def test_fuzz_set_cal_records_mutated_field_by_field(harness, data):
     """A record the firmware accepts, then up to three fields replaced: wrong types,
     nested meta and diagnostics, 1e-3 / 1e308 fields, 1e12 offsets, skewed, reversed and
     swapped axes, 10**400, NaN. Accepted or refused with a code; the survey streams."""
-    run_case(harness, fuzz.case(HypothesisDraw(data), "set-cal"))
+    run_case(harness, grammar.case(HypothesisDraw(data), "set-cal"))
 
 
 @settings(FUZZ, max_examples=500)
@@ -89,7 +91,7 @@ def test_fuzz_set_cal_records_mutated_field_by_field(harness, data):
 def test_fuzz_config_keys_with_generated_values(harness, data):
     """config set / get of every SCHEMA key: valid, edge and out-of-range values, 1e309,
     400-digit integers, strings, objects."""
-    run_case(harness, fuzz.case(HypothesisDraw(data), "config"))
+    run_case(harness, grammar.case(HypothesisDraw(data), "config"))
 
 
 @settings(FUZZ, max_examples=300)
@@ -98,10 +100,10 @@ def test_fuzz_bytes_long_lines_and_floods(harness, data):
     """Random bytes (NUL, Ctrl-C, invalid UTF-8, lone CR), lines at and past 2048 bytes,
     floods of up to 60 lines and 6 kB without a newline, several cases in one burst."""
     d = HypothesisDraw(data)
-    run_case(harness, fuzz.case(d, d.pick(["bytes", "long", "flood", "mixed"]), flood_max=60))
+    run_case(harness, grammar.case(d, d.pick(["bytes", "long", "flood", "mixed"]), flood_max=60))
 
 
-K = fuzz.K
+K = grammar.K
 GOOD = {"version": 1, "matrix": [[K, 0.0, 0.0], [0.0, K, 0.0], [0.0, 0.0, K]], "offset": [10.0, -20.0, 30.0],
         "field": 48000.0, "meta": {"temperature_c": 25.0, "scale": [K, K, K]}}
 
@@ -114,7 +116,7 @@ def set_cal(**changes):
         for k in head:
             d = d[k]
         d[last] = value
-    return "set-cal " + fuzz.dumps(rec)
+    return "set-cal " + grammar.dumps(rec)
 
 
 # The inputs issue 10 found, and the kinds of the brief; each one line, one reply, alive.
@@ -133,11 +135,11 @@ PINNED = {
     "config set field_nt Infinity": "config set field_nt Infinity",
     "config set rate NaN": "config set rate NaN",
     "config set field_nt deep": "config set field_nt " + "[" * 1000 + "]" * 1000,
-    "set-cal field 400 digits": set_cal(field=fuzz.Raw(str(10 ** 400))),
-    "set-cal field 1e309": set_cal(field=fuzz.Raw("1e309")),
-    "set-cal offset NaN": set_cal(offset=[fuzz.Raw("NaN"), 0.0, 0.0]),
+    "set-cal field 400 digits": set_cal(field=grammar.Raw(str(10 ** 400))),
+    "set-cal field 1e309": set_cal(field=grammar.Raw("1e309")),
+    "set-cal offset NaN": set_cal(offset=[grammar.Raw("NaN"), 0.0, 0.0]),
     "set-cal deep JSON": "set-cal " + '{"a": ' * 600 + "1" + "}" * 600,
-    "set-cal deep meta": set_cal(meta=fuzz.Raw('{"x": ' + "[" * 900 + "]" * 900 + "}")),
+    "set-cal deep meta": set_cal(meta=grammar.Raw('{"x": ' + "[" * 900 + "]" * 900 + "}")),
     # found by this fuzzing: MicroPython's bytes.decode accepts overlong forms, UTF-16
     # surrogates and code points past U+10FFFF, and the reply echoed them raw: a line that
     # is not UTF-8, so not JSON, for the laptop
