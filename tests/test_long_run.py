@@ -9,6 +9,7 @@ complete simulated minute, +-1 where a minute's edge falls between a block's sam
 import pytest
 
 from desktop.bench import longrun
+from desktop.bench.longrun_report import problems, table
 from tests.interpreters import need
 
 
@@ -23,7 +24,7 @@ def figures():
 
 def test_short_long_run_holds_every_invariant(figures):
     f = figures
-    assert longrun.problems(f) == [], longrun.table(f)
+    assert problems(f) == [], table(f)
     assert f["simulated_s"] > 179.0 and f["statuses"] >= 85
     # 180 s at the default 1000 SPS: every conversion counted once, none missed or merged
     assert f["frames"] >= 180 * longrun.DEFAULTS["rate"]
@@ -39,11 +40,11 @@ def test_short_long_run_holds_every_invariant(figures):
 def test_short_long_run_is_faster_than_real_time(figures):
     """The CI run's wall time (loose: a shared machine): 180 simulated seconds well under
     a minute; the 8-hour figure is docs/long-run.md's."""
-    assert figures["wall_s"] < 60.0, longrun.table(figures)
+    assert figures["wall_s"] < 60.0, table(figures)
 
 
 def test_table_names_every_figure(figures):
-    text = longrun.table(figures)
+    text = table(figures)
     for what in ("heap mem_free", "frame counter", "missed / overflow", "data events per simulated minute",
                  "log files", "log bytes"):
         assert what in text
