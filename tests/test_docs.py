@@ -637,6 +637,30 @@ def test_docs_name_only_what_exists(docs, index):
     assert not problems, "%d names in the docs the code lacks:\n" % len(problems) + "\n".join(problems)
 
 
+def test_docs_give_no_issue_numbers_or_history(docs):
+    """Users read the docs: history and issue numbers go to CHANGELOG.md."""
+    found = []
+    for doc, (prose, code, _spans) in docs.items():
+        for n, line in prose:
+            if re.search(r"\bissues? \d+", line, re.I):
+                found.append("%s:%d: %s" % (doc, n, line.strip()[:100]))
+    assert not found, "issue numbers in the docs:\n" + "\n".join(found)
+
+
+def test_readme_is_short():
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as fh:
+        assert len(fh.read().splitlines()) <= 200, "README.md over 200 lines: move detail to docs/"
+
+
+
+def test_readme_command_table_lists_every_subcommand():
+    """The README's table of commands: one row per `fluxcal` subcommand, none invented."""
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as fh:
+        text = fh.read()
+    listed = re.findall(r"^\| `fluxcal ([a-z-]+)", text, re.M)
+    assert sorted(listed) == sorted(fluxcal_parsers()), (sorted(listed), sorted(fluxcal_parsers()))
+
+
 # every check, shown to fail on a planted wrong name (the same functions the doc test runs)
 
 def _planted(index, text, lang=""):
