@@ -355,8 +355,41 @@ def fluxcal_parsers():
     for action in parser._actions:
         if hasattr(action, "choices") and isinstance(action.choices, dict):
             for name, sub in action.choices.items():
-                subs[name] = {o for a in sub._actions for o in a.option_strings}
+                # option -> its choices (None: any value); None -> the positional's choices
+                subs[name] = {o: a.choices for a in sub._actions for o in a.option_strings}
+                subs[name][None] = next((a.choices for a in sub._actions
+                                         if not a.option_strings and a.choices), None)
     return subs
+
+
+def _values(token):
+    """The words a doc gives as an option's values (`a|b`, `[a|b]`), or None for a placeholder."""
+    parts = [p.strip("[](),.;:'\"`") for p in token.split("|")]
+    if all(re.match(r"^[a-z][\w.-]*$", p) for p in parts):
+        return parts
+    return None
+
+
+def _check_values(doc, sub, rest, choices):
+    """Option values and the positional's among the parser's choices."""
+    problems, tokens = [], rest.split()
+    for i, token in enumerate(tokens):
+        opt, _, inline = token.strip("[]").partition("=")
+        if opt.startswith("-"):
+            value = inline or (tokens[i + 1] if i + 1 < len(tokens) else "")
+            allowed = choices.get(opt)
+        elif i == 0 or not tokens[i - 1].strip("[]").startswith("-"):
+            value, allowed = token, choices.get(None)
+            if i:          # only the first positional is checked (NAME, RAW, ...)
+                continue
+        else:
+            continue
+        words = _values(value) if allowed and value and not value.startswith("-") else None
+        for word in words or ():
+            if word not in allowed:
+                problems.append("%s: fluxcal %s %s: %s is not one of %s" % (doc, sub, opt if opt.startswith("-") else "",
+                                                                              word, ", ".join(map(str, allowed))))
+    return problems
 
 
 def check_command(doc, line, subs, index):
@@ -371,6 +404,7 @@ def check_command(doc, line, subs, index):
         for opt in _options_in(rest):
             if opt not in subs[sub]:
                 problems.append("%s: fluxcal %s has no option %s" % (doc, sub, opt))
+        problems += _check_values(doc, sub, rest, subs[sub])
     for m in re.finditer(r"python -m ([\w.]+)((?: +[^ #`]+)*)", line):
         mod, rest = m.group(1), m.group(2)
         path = index.modules.get(mod)
@@ -683,6 +717,9 @@ def _planted(index, text, lang=""):
     ("`docs/firmware.md`", "`../shared/reference/ads1292-and-runtimes.md`"),
     ("`fluxcal fit --prior OLD.json`", "`fluxcal fit --priors OLD.json`"),
     ("`fluxcal calibrate --quick`", "`fluxcal calibrat --quick`"),
+    ("`fluxcal fit RAW --method streaming|mle`", "`fluxcal fit RAW --method streaming|lsq`"),
+    ("`fluxcal experiment lag -o DIR`", "`fluxcal experiment drag -o DIR`"),
+    ("`fluxcal emulate --runtime micropython-reprc`", "`fluxcal emulate --runtime micropython-repr`"),
     ("`python -m desktop.bench.cortexm --before e405f90`", "`python -m desktop.bench.cortexm --after e405f90`"),
     ("`python -m desktop.bench.fuzz`", "`python -m desktop.bench.fuzzer`"),
     ("`make demo`", "`make demos`"),
