@@ -289,6 +289,19 @@ def _basenames():
     return EXISTS_CACHE
 
 
+# docs about the firmware: a bare file name there means a firmware file (device/, shared/), so
+# `calibrate.py` cannot pass on desktop/cli/calibrate.py once the firmware's is gone
+FIRMWARE_DOCS = ("docs/firmware.md", "docs/protocol.md", "docs/reliability.md")
+FIRMWARE_DOC_OTHERS = {
+    "device.py": "desktop/bench/device.py, named in the heap bench's own output table",
+    "firmware_cost.py": "desktop/bench/micropython-scripts/firmware_cost.py, named in the device bench's output",
+}
+
+
+def _firmware_names():
+    return {n for top in ("device", "shared") for _d, _s, names in os.walk(os.path.join(ROOT, top)) for n in names}
+
+
 def check_paths(doc, text):
     """Every repository path (device/app.py, docs/x.md, globs) and bare file name (app.py) exists."""
     problems = []
@@ -305,6 +318,9 @@ def check_paths(doc, text):
         name = m.group(1)
         if name not in names and name not in ALLOWED and not name[:1].isupper():   # CAL.json: a placeholder
             problems.append("%s: no file named %s" % (doc, name))
+        elif doc in FIRMWARE_DOCS and name.endswith(".py") and name not in _firmware_names() \
+                and name not in FIRMWARE_DOC_OTHERS:
+            problems.append("%s: %s is no firmware file: give its path" % (doc, name))
     return problems
 
 
@@ -697,8 +713,7 @@ def test_readme_command_table_lists_every_subcommand():
 
 # every check, shown to fail on a planted wrong name (the same functions the doc test runs)
 
-def _planted(index, text, lang=""):
-    doc = "planted.md"
+def _planted(index, text, lang="", doc="planted.md"):
     subs, table, schema = fluxcal_parsers(), command_table(), config_schema()
     problems = check_paths(doc, text) + check_links(doc, text)
     for span in re.findall(r"`([^`]+)`", text):
@@ -738,6 +753,13 @@ def _planted(index, text, lang=""):
 def test_each_check_catches_a_planted_wrong_name(index, right, wrong):
     assert not _planted(index, right), _planted(index, right)
     assert _planted(index, wrong), "%s passed" % wrong
+
+
+def test_firmware_doc_check_catches_a_bare_name_from_elsewhere(index):
+    """In docs/firmware.md `app.py` is the firmware's; `emulate.py` (desktop/cli/) needs its path."""
+    assert not _planted(index, "`app.py`, desktop/cli/emulate.py", doc="docs/firmware.md")
+    assert _planted(index, "`emulate.py`", doc="docs/firmware.md")
+    assert not _planted(index, "`emulate.py`", doc="docs/cli.md")
 
 
 def test_python_block_check_catches_a_changed_signature(index):
