@@ -10,6 +10,8 @@ anything missing or invalid and reports it, so a bad file never stops the
 device. docs/firmware.md lists the keys and why each default was chosen.
 """
 
+from shared.codes import MAX_PREDICTED_NT   # fluxcal fit refuses by the same default
+
 # key: (default, kind, lo, hi). kind: "int", "float", "bool", "pin", "scale", "opt_float", "choice:a|b"
 SCHEMA = {
     # wiring (pin names are HAL specific: GPIO numbers on MicroPython, board names on CircuitPython)
@@ -69,7 +71,7 @@ SCHEMA = {
     "auto_finish": (True, "bool", 0, 0),
     "max_rms_nt": (5.0, "float", 0.01, 10000.0),  # acceptance: fit residual
     "min_observability": (0.02, "float", 0.0, 1.0),
-    "max_predicted_nt": (5.0, "float", 0.01, 10000.0),
+    "max_predicted_nt": (MAX_PREDICTED_NT, "float", 0.01, 10000.0),
     "outlier_nt": (50.0, "float", 1.0, 100000.0),  # disturbance gate vs provisional fit
     # a decimated sample off the line through both neighbours by more than this (plus the
     # bend the motion allows) is a flipped bit, not the field (screen.py, docs/reliability.md)

@@ -35,12 +35,12 @@ to be no better raises FitError(not_better), so the previous one stays.
 
 import math
 
+from shared.codes import DEGENERATE_COVERAGE, NOT_BETTER
 from shared.prior import make_prior
 from shared.quadric import FRAC, PAIR
-from shared.solver import (DEGENERATE_COVERAGE, FitError, _State, _finish, _quantise, iterate, log_ratio, setup,
+from shared.solver import (FitError, _State, _finish, _quantise, iterate, log_ratio, setup,
                            solve_state)
 
-NOT_BETTER = "not_better"
 # the 0.1 % points of chi^2 with 0..5 degrees of freedom: a model with more gains against
 # one with fewer; the full fit's shape (six) against the gains fitted
 CHI2_001 = (0.0, 10.83, 13.82, 16.27, 18.47, 20.52)

@@ -22,6 +22,8 @@ CircuitPython floats and doubles therefore reach the same fixed point.
 import math
 
 from shared import linalg
+from shared.calibration import Calibration
+from shared.codes import DEGENERATE_COVERAGE, NON_FINITE, NOT_ELLIPSOID, TOO_FEW_SAMPLES
 from shared.moments import INDEX, bit_length, to_float
 from shared.prior import Prior, make_prior
 from shared.quadric import FRAC, UNIT, W_C, W_EXP, Problem, add_exp, sym
@@ -43,10 +45,6 @@ for _s1 in (1.0, -1.0):
 # hyperboloid 19 %.
 MAX_MISFIT = 0.1
 
-TOO_FEW_SAMPLES = "too_few_samples"
-DEGENERATE_COVERAGE = "degenerate_coverage"
-NOT_ELLIPSOID = "not_ellipsoid"
-NON_FINITE = "non_finite"
 
 
 class FitError(Exception):
@@ -347,8 +345,6 @@ def iterate(pb, pr, st, num, max_iter, basis=None):
 
 
 def _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error, h=None, dirs=None):
-    from shared.calibration import Calibration
-
     one = num(1.0)
     zero = num(0.0)
     am = sym(st.a)

@@ -48,6 +48,7 @@ calibrations.
 import math
 
 from shared.calibration import Calibration
+from shared.codes import TOO_FEW_SAMPLES
 from shared.fit import EllipsoidFit, FitError
 from shared.moments import COUNT, INDEX, ORDER, bit_length
 
@@ -474,7 +475,7 @@ class WarmupFit:
         """
         segs = self._usable(min_fraction)
         if not segs:
-            raise FitError("too_few_samples", "no samples")
+            raise FitError(TOO_FEW_SAMPLES, "no samples")
         lo = segs[0].lo
         hi = segs[0].hi
         for s in segs:

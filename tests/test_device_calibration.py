@@ -15,6 +15,7 @@ import pytest
 from desktop.devicesim.procedure import calibrate_and_verify, events, handheld_config
 from desktop.devicesim.runners import start_device, write_config
 from desktop.devicesim.world import make_world
+from shared import codes
 from tests.device_bounds import spin_ptp_bound
 from tests.interpreters import INTERPRETERS, float_eps, need
 
@@ -118,8 +119,8 @@ def test_single_axis_spin_cannot_calibrate(tmp_path):
     w.press(0.2)
     dev.run_until(24.0)
     res = _last_cal(w)
-    assert res["state"] == "failed"
-    assert res["reason"] in ("degenerate_coverage", "poor_observability", "predicted_error_too_high")
+    assert res["state"] == codes.FAILED
+    assert res["reason"] in (codes.DEGENERATE_COVERAGE, codes.POOR_OBSERVABILITY, codes.PREDICTED_ERROR_TOO_HIGH)
     dev.close()
 
 

@@ -13,6 +13,7 @@ import serial
 from desktop.devicesim.client import Client
 from desktop.devicesim.runners import start_device
 from desktop.devicesim.world import make_world
+from shared import codes
 from tests.device_session import on_pty
 from tests.interpreters import INTERPRETERS, need
 
@@ -73,6 +74,16 @@ def test_oversized_binary_and_control_input(client):
     assert client.replies()[-1]["error"] == "line_too_long"
     r = client.ask("version")
     assert r["ok"] and r["cmd"] == "version"
+
+
+def test_the_line_limit_is_the_one_the_laptop_checks(client):
+    """A request of exactly MAX_LINE bytes is read (fluxcal push-cal sends up to that), one
+    byte more is line_too_long: shared/codes.py's limit is the firmware's."""
+    client.write(b"x" * codes.MAX_LINE + b"\n")
+    client.step()
+    client.write(b"x" * (codes.MAX_LINE + 1) + b"\n")
+    client.step()
+    assert [d["error"] for d in client.replies()] == [codes.UNKNOWN_COMMAND, codes.LINE_TOO_LONG]
 
 
 def test_config_roundtrip_persists(client, tmp_path):

@@ -13,6 +13,7 @@ import numpy as np
 from desktop.devicesim.procedure import events, handheld_config
 from desktop.devicesim.runners import start_device, write_config
 from desktop.devicesim.world import make_world
+from shared import codes
 
 
 def _session(tmp_path, rot_rate, seconds, **cfg):
@@ -76,7 +77,7 @@ def test_a_lag_the_gate_was_not_told_about_is_seen_in_the_residuals(tmp_path):
     w, dev = _session(tmp_path, 0.1, 60.0, sensor_bandwidth_hz=1000.0)
     try:
         end = [e for e in events(w, "cal") if e.get("state") != "collecting"][-1]
-        assert end["state"] == "failed" and end["reason"] == "predicted_error_too_high", end
+        assert end["state"] == codes.FAILED and end["reason"] == codes.PREDICTED_ERROR_TOO_HIGH, end
         assert "follow each other" in end["msg"] and "sensor_bandwidth_hz" in end["msg"]
         assert dev.app.cal is None
     finally:

@@ -16,9 +16,10 @@ from desktop.sim.field import EARTH_NT
 from desktop.sim.points import directions
 from desktop.sim.scenario import Scenario, simulate
 from desktop.sim.sensor import Sensor
+from shared import codes
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-REFUSED = "fluxcal: calibration refused (predicted_error_too_high): predicted error "
+REFUSED = "fluxcal: calibration refused (%s): predicted error " % codes.PREDICTED_ERROR_TOO_HIGH
 
 
 def fluxcal(*args):
@@ -65,7 +66,7 @@ def test_accept_anyway_writes_an_honest_prediction(mag648, tmp_path):
         proc = fluxcal("fit", path, "-o", out, "--accept-anyway", *extra)
         assert proc.returncode == 0, proc.stderr
         warning = one_line(proc.stderr)
-        assert warning.startswith("fluxcal: warning: predicted_error_too_high: predicted error ")
+        assert warning.startswith("fluxcal: warning: %s: predicted error " % codes.PREDICTED_ERROR_TOO_HIGH)
         assert "written anyway (--accept-anyway)" in warning
         cal = load_calibration(str(out))
         d = cal.diagnostics
@@ -105,7 +106,7 @@ def test_cores_own_refusal_is_lifted_by_accept_anyway(tmp_path):
     proc = fluxcal("fit", src, "-o", tmp_path / "a.json")
     assert proc.returncode == 1 and one_line(proc.stderr).startswith("fluxcal: calibration failed (degenerate_coverage)")
     proc = fluxcal("fit", src, "-o", tmp_path / "b.json", "--accept-anyway")
-    assert proc.returncode == 0 and "predicted_error_too_high" in one_line(proc.stderr)
+    assert proc.returncode == 0 and codes.PREDICTED_ERROR_TOO_HIGH in one_line(proc.stderr)
     assert load_calibration(str(tmp_path / "b.json")).diagnostics["predicted_error"] > 100
 
 

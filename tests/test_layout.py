@@ -15,6 +15,8 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
+# The names both ends of the serial line agree on: whatever speaks to the firmware may use them.
+CODES = "shared.codes"
 # folder -> (third-party packages, project packages it may import besides itself)
 RULES = {
     "shared": ((), ()),
@@ -22,14 +24,14 @@ RULES = {
     "desktop/formats": (("numpy",), ("shared", "desktop.sim.ads1292.registers")),
     "desktop/methods": (("numpy",), ("shared",)),
     "desktop/firmware": ((), ()),
-    "desktop/devicesim": (("numpy",), ("desktop.sim", "desktop.firmware")),
+    "desktop/devicesim": (("numpy",), ("desktop.sim", "desktop.firmware", CODES)),
     "desktop/experiments": (("numpy", "matplotlib"), ("shared", "desktop.sim", "desktop.methods",
                                                       "desktop.formats")),
     "desktop/demo": (("numpy", "matplotlib"), ("desktop.sim", "desktop.methods", "desktop.devicesim",
-                                               "desktop.firmware")),
+                                               "desktop.firmware", CODES)),
     "desktop/bench": (("numpy", "serial"), ("shared", "desktop.sim", "desktop.methods", "desktop.devicesim",
                                              "desktop.firmware", "desktop.formats", "desktop.link")),
-    "desktop/link": (("serial",), ()),
+    "desktop/link": (("serial",), (CODES,)),
     "desktop/cli": (("numpy", "matplotlib", "rich"), ("shared", "desktop")),
 }
 # the MicroPython-only modules shared/ guards with try/except ImportError
@@ -51,7 +53,8 @@ def _imports(path):
         if isinstance(node, ast.Import):
             yield from (a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
-            yield node.module
+            # each name: `from shared import codes` is an import of shared.codes, not of all of shared
+            yield from (node.module + "." + a.name for a in node.names)
 
 
 def _own(folder):

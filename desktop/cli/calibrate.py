@@ -15,6 +15,7 @@ import time
 
 from desktop.cli import CommandError
 from desktop.cli._device import add_port_arguments, connected, device_config, quietly, stream_events
+from shared import codes
 
 HELP = "calibrate the handheld: live progress and coverage map, finish or cancel from the keyboard"
 SILENCE_S = 5.0     # the firmware sends progress every second; this long without is a dead device
@@ -52,19 +53,19 @@ def run(args):
             quietly(dev, "cancel-cal")     # leave no session running; a dead line is no news
             raise
         cov = dev.ask("get-coverage")
-        verify = _verify(dev, args.verify, cfg) if result.get("state") == "done" and args.verify > 0 else None
+        verify = _verify(dev, args.verify, cfg) if result.get("state") == codes.DONE and args.verify > 0 else None
     if not sys.stdout.isatty():
         print("\n".join(coverage_text(cov["counts"], cov["cells_per_edge"], cfg["cell_cap"])))
-    if result.get("state") == "cancelled":
+    if result.get("state") == codes.CANCELLED:
         raise CommandError("calibration cancelled; the previous calibration stays in force")
-    if result.get("state") != "done":
+    if result.get("state") != codes.DONE:
         raise CommandError("calibration failed (%s): %s; the previous calibration stays in force"
                            % (result.get("reason"), result.get("msg")))
     print("calibration done: %s; %s; %s" % (fit_figures(result),
                                             "saved, in force" if result.get("saved") else
                                             "in force but NOT saved: %s" % result.get("save_error"),
-                                            "a quick re-calibration" if result.get("kind") == "quick" else
-                                            "%s calibration" % result.get("kind", "full")))
+                                            "a quick re-calibration" if result.get("kind") == codes.QUICK else
+                                            "%s calibration" % result.get("kind", codes.FULL)))
     if verify:
         print("verification: %d samples of corrected |B| over %.1f s: peak-to-peak %.3f nT, std %.3f nT" % verify)
     if previous is None:
@@ -85,7 +86,7 @@ def _follow(dev, cfg, auto, view, keys):
         ev = dev.next_event(0.1)
         if ev is not None and ev.get("ev") == "cal":
             last = time.monotonic()
-            if ev.get("state") != "collecting":
+            if ev.get("state") != codes.COLLECTING:
                 return ev
             view.update(ev, dev.ask("get-coverage") if view.wants_map else None)
             if auto and ev.get("ready") and not cfg.get("auto_finish", True):
@@ -100,7 +101,7 @@ def _follow(dev, cfg, auto, view, keys):
             if key == "cancel":
                 dev.ask("cancel-cal")   # the `cal` event with state "cancelled" follows
         except DeviceError as exc:
-            if exc.code != "not_calibrating":   # it finished by itself meanwhile: its event is coming
+            if exc.code != codes.NOT_CALIBRATING:   # it finished by itself meanwhile: its event is coming
                 raise
 
 

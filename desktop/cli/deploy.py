@@ -10,6 +10,7 @@ version is checked on the board's data port.
 import time
 
 from desktop.cli import CommandError
+from shared import codes
 
 HELP = "install the firmware on a board (MicroPython with mpremote, CircuitPython onto its drive)"
 
@@ -50,7 +51,7 @@ def hand_back(port):
         fw = dev.connect().get("fw")
         dev.ask("repl")
     except DeviceError as exc:
-        if exc.code == "busy":
+        if exc.code == codes.BUSY:
             raise CommandError("the firmware on %s is calibrating: finish or cancel the calibration, then deploy"
                                % port) from None
         raise CommandError("the firmware on %s cannot hand the line to the REPL (%s): hold the button while "

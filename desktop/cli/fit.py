@@ -12,12 +12,10 @@ import sys
 
 from desktop.cli import CommandError
 from desktop.methods import METHODS
+from shared.codes import MAX_PREDICTED_NT, PREDICTED_ERROR_TOO_HIGH
 
 HELP = "fit a calibration to raw readings (CSV x,y,z in nT, or a capture .npz)"
 
-# The firmware's acceptance threshold (device/config.py, max_predicted_nt).
-MAX_PREDICTED_NT = 5.0
-REFUSED = "predicted_error_too_high"
 # tau_int above this (samples) names the sensor's lag, not the coverage, as the cause
 CORRELATED_TAU = 3.0
 
@@ -88,7 +86,7 @@ def run(args):
                  systematic_floor=honest["applied_floor"])
     refused = predicted is not None and predicted > args.max_predicted
     if refused and not args.accept_anyway:
-        raise CommandError("calibration refused (%s): %s" % (REFUSED, _why(honest, args.max_predicted)))
+        raise CommandError("calibration refused (%s): %s" % (PREDICTED_ERROR_TOO_HIGH, _why(honest, args.max_predicted)))
     cal.meta["method"] = args.method
     cal.meta["source"] = args.raw
     temp = _mean_die_temperature(args.raw)
@@ -109,7 +107,7 @@ def run(args):
     else:
         print("no predicted error for the %s method: not checked against --max-predicted" % args.method)
     if refused:
-        print("fluxcal: warning: %s: %s; written anyway (--accept-anyway)" % (REFUSED, _why(honest, args.max_predicted)),
+        print("fluxcal: warning: %s: %s; written anyway (--accept-anyway)" % (PREDICTED_ERROR_TOO_HIGH, _why(honest, args.max_predicted)),
               file=sys.stderr)
     return 0
 

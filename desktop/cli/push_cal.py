@@ -10,9 +10,9 @@ import json
 
 from desktop.cli import CommandError
 from desktop.cli._device import add_port_arguments, connected, device_config, nT_per_code
+from shared.codes import MAX_LINE
 
 HELP = "send a calibration JSON to the handheld (validated here and by the firmware)"
-MAX_REQUEST = 2047    # the firmware's line limit, newline included (docs/protocol.md)
 
 
 def add_arguments(p):
@@ -32,9 +32,9 @@ def run(args):
         converted = not takes_codes(cal)
         cal = to_code_units(cal, nT_per_code(device_config(dev)))
         request = "set-cal " + json.dumps(cal.to_dict(), separators=(",", ":"))
-        if len(request) >= MAX_REQUEST:
+        if len(request) > MAX_LINE:   # the firmware would drop it (line_too_long)
             raise CommandError("%s: %d bytes as a request, the firmware takes %d: trim its meta"
-                               % (args.calibration, len(request), MAX_REQUEST))
+                               % (args.calibration, len(request), MAX_LINE))
         dev.ask(request)
         back = dev.ask("get-cal")["cal"]
     if back is None or not _same(back, cal):

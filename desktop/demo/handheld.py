@@ -20,6 +20,7 @@ import numpy as np
 
 from desktop.devicesim.procedure import calibrate_and_verify
 from desktop.firmware.interpreters import micropython_exe
+from shared import codes
 
 PAPER = (("Not calibrated", "24,055", "652"), ("Geometric", "15", "3"), ("Neural network", "8", "4"))
 
@@ -90,7 +91,7 @@ def run(out_dir="out", rotate_s=120.0, kind=None, seed=1):
     r = calibrate_and_verify(kind=kind, root=os.path.join(out_dir, "device"), seed=seed, rotate_s=rotate_s,
                              spin_s=10.0, auto_finish=False, progress=progress)
     cal = r["cal"] or {}
-    if cal.get("state") != "done":
+    if cal.get("state") != codes.DONE:
         print("calibration %s: %s" % (cal.get("state"), cal.get("msg")))
         return 1
     print("calibration done: %s samples, coverage %.0f %%, residual %.3f nT rms, predicted error %.3f nT"

@@ -20,6 +20,9 @@ from desktop.devicesim.costs import COSTS_S
 from desktop.devicesim.runners import start_device, write_config
 from desktop.devicesim.world import make_world
 from desktop.firmware.files import import_device
+from shared import codes
+
+_ENDED = (codes.DONE, codes.FAILED, codes.CANCELLED)   # a session's last `cal` event
 
 
 def handheld_config(scenario, kind="cpython"):
@@ -55,7 +58,7 @@ def _progress(lines):
     """Progress events with the seconds since the first one (events come once per second)."""
     out = []
     for d in _parse(lines):
-        if d.get("ev") == "cal" and d.get("state") == "collecting":
+        if d.get("ev") == "cal" and d.get("state") == codes.COLLECTING:
             d["t_s"] = float(len(out))
             out.append(d)
     return out
@@ -112,7 +115,7 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
             t = min(t + 1.0, t_press + rotate_s)
             dev.run_until(t)
             for e in events(w, "cal", n0):
-                if e.get("state") in ("done", "failed", "cancelled"):
+                if e.get("state") in _ENDED:
                     done = e
             n0 = len(w.lines())
             if progress:
@@ -122,13 +125,13 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
             w.press(0.2)
             dev.run_until(w.time + 0.5)
             for e in events(w, "cal", n0):
-                if e.get("state") in ("done", "failed", "cancelled"):
+                if e.get("state") in _ENDED:
                     done = e
         send(dev, w, "get-coverage")
         cov = events(w)[-1]
         send(dev, w, "status")
         cal_status = events(w)[-1]
-        collecting = [e for e in events(w, "cal") if e.get("state") == "collecting"]
+        collecting = [e for e in events(w, "cal") if e.get("state") == codes.COLLECTING]
         cal_lines = w.lines()
     finally:
         dev.close()

@@ -28,6 +28,7 @@ from desktop.sim.field import EARTH_NT
 from desktop.sim.points import uniform_directions
 from desktop.sim.sensor import PRESETS
 from shared.calibration import Calibration
+from shared.codes import MAX_PREDICTED_NT   # fluxcal fit's default, the firmware's max_predicted_nt
 
 RATES_REV_S = (0.05, 0.1, 0.2, 0.5, 1.0)
 SPS = 250
@@ -36,7 +37,6 @@ TEST_MOTIONS = (2, 3, 4, 5, 6)     # held-out rotations
 FIT_MOTIONS = (1, 7, 8, 9)         # calibration rotations (the first: the held-out PTP)
 SHRINK_FIELD = 48000.0           # nT, for the rate table
 SHRINK_LIMITS = (1.0, 0.1)       # nT
-MAX_PREDICTED_NT = 5.0           # fluxcal fit's default (the firmware's max_predicted_nt)
 PAPER_MAG648 = "38 nT / 23 nT^2 at 250 Hz, 29 nT / 23 nT^2 at 1000 Hz (Table 1)"
 
 

@@ -16,7 +16,7 @@
 Every failure is a LinkError whose message is one line a person can act on.
 """
 
-PROTOCOL = 1   # the protocol version this client speaks (docs/protocol.md, "Versioning")
+from shared.codes import PROTOCOL_VERSION as PROTOCOL   # the version this client speaks (docs/protocol.md)
 
 
 class LinkError(Exception):
