@@ -1,28 +1,45 @@
 """The `fluxcal` command line: a table of sub-commands (after mpremote's main.py).
 
 Each sub-command is a module of this package (fit.py, correct.py, pull-cal is
-pull_cal.py, ...; modules starting with _ are helpers the commands share) with
-``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int``; what
-only one command needs (the simulator, the firmware runner, matplotlib) is
-imported inside its ``run``, so `fluxcal fit` does not pay for the others. A handler raises
+pull_cal.py, ...; modules starting with _ are helpers the commands share), named
+in COMMANDS, with ``HELP`` (one line), ``add_arguments(parser)`` and
+``run(args) -> int``; what only one command needs (the simulator, the firmware
+runner, numpy, matplotlib) is imported inside its ``run`` (or ``add_arguments``
+when its choices need it), so importing the table stays light and `fluxcal fit`
+does not pay for the others. A handler raises
 :class:`CommandError` (or a file format's FormatError) for anything the user
 can fix; ``main`` prints it as one line ``fluxcal: message`` and exits 1,
 never with a traceback.
 """
 
 import argparse
-import importlib
 import sys
 
+from desktop.cli import (calibrate, capture, correct, demo, deploy, emulate, experiment, fit, monitor, pull_cal,
+                         push_cal, report, simulate, status, tempco)
+from desktop.cli._errors import CommandError
 from desktop.formats import FormatError
 
-COMMANDS = ("fit", "tempco", "correct", "demo", "simulate", "experiment",
-            "status", "calibrate", "monitor", "capture", "pull-cal", "push-cal", "report", "emulate",
-            "deploy")
+# name -> module, in the order `fluxcal --help` lists them
+COMMANDS = {
+    "fit": fit,
+    "tempco": tempco,
+    "correct": correct,
+    "demo": demo,
+    "simulate": simulate,
+    "experiment": experiment,
+    "status": status,
+    "calibrate": calibrate,
+    "monitor": monitor,
+    "capture": capture,
+    "pull-cal": pull_cal,
+    "push-cal": push_cal,
+    "report": report,
+    "emulate": emulate,
+    "deploy": deploy,
+}
 
-
-class CommandError(Exception):
-    """A user-facing failure: printed as one line `fluxcal: message`, exit code 1."""
+__all__ = ["COMMANDS", "CommandError", "build_parser", "main"]
 
 
 def build_parser():
@@ -32,8 +49,7 @@ def build_parser():
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for name in COMMANDS:
-        module = importlib.import_module("desktop.cli." + name.replace("-", "_"))
+    for name, module in COMMANDS.items():
         p = sub.add_parser(name, help=module.HELP, description=module.HELP)
         module.add_arguments(p)
         p.set_defaults(_run=module.run)

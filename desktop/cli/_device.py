@@ -12,7 +12,7 @@ Not a command (COMMANDS does not list it).
 import contextlib
 import sys
 
-from desktop.cli import CommandError
+from desktop.cli._errors import CommandError
 
 
 def add_port_arguments(p):

@@ -13,7 +13,7 @@ leaves the previous one in force and exits 1.
 import sys
 import time
 
-from desktop.cli import CommandError
+from desktop.cli._errors import CommandError
 from desktop.cli._device import add_port_arguments, connected, device_config, quietly, stream_events
 from shared import codes
 

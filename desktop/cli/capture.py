@@ -11,7 +11,7 @@ desktop/formats/capture.py's format: `fluxcal fit FILE.npz -o CAL.json` fits it.
 import sys
 import time
 
-from desktop.cli import CommandError
+from desktop.cli._errors import CommandError
 from desktop.cli._device import (add_port_arguments, connected, device_config, nT_per_code, quietly,
                                  stream_events, unwrap_ms)
 

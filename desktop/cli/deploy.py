@@ -9,7 +9,7 @@ version is checked on the board's data port.
 
 import time
 
-from desktop.cli import CommandError
+from desktop.cli._errors import CommandError
 from shared import codes
 
 HELP = "install the firmware on a board (MicroPython with mpremote, CircuitPython onto its drive)"

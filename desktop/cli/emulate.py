@@ -23,7 +23,7 @@ def add_arguments(p):
 
 def read_script(path):
     """[(seconds, action, arg or None)] from a script file; CommandError naming the bad line."""
-    from desktop.cli import CommandError
+    from desktop.cli._errors import CommandError
     from desktop.devicesim.virtual_handheld import ACTIONS
     out = []
     try:
@@ -52,7 +52,7 @@ def run(args):
     import threading
     import time
 
-    from desktop.cli import CommandError
+    from desktop.cli._errors import CommandError
     from desktop.devicesim.virtual_handheld import InProcessHandheld, VirtualHandheld
 
     script = read_script(args.script) if args.script else []
@@ -123,7 +123,7 @@ def run(args):
 
 
 def _act(hh, action, arg):
-    from desktop.cli import CommandError
+    from desktop.cli._errors import CommandError
     try:
         hh.act(action, arg)
     except ValueError as exc:
@@ -143,7 +143,7 @@ def _deploy_if_empty(hh, flash):
     board's port with mpremote (MicroPython), or into its drive folder (CircuitPython), then a reset."""
     import os
 
-    from desktop.cli import CommandError
+    from desktop.cli._errors import CommandError
     from desktop.cli.deploy import check_version
     from desktop.firmware.deploy import DeployError, MicroPythonDeploy, deploy_drive, firmware_version
 

@@ -3,7 +3,7 @@
 import os
 import time
 
-from desktop.cli import CommandError
+from desktop.cli._errors import CommandError
 
 HELP = "reproduce a paper experiment (table1, table2, fig6, fig7, fig8, smearing, lag): PNG + markdown table"
 

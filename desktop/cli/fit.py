@@ -10,8 +10,7 @@ predicted worse than --max-predicted is refused like the firmware refuses it
 import os
 import sys
 
-from desktop.cli import CommandError
-from desktop.methods import METHODS
+from desktop.cli._errors import CommandError
 from shared.codes import MAX_PREDICTED_NT, PREDICTED_ERROR_TOO_HIGH
 
 HELP = "fit a calibration to raw readings (CSV x,y,z in nT, or a capture .npz)"
@@ -21,6 +20,8 @@ CORRELATED_TAU = 3.0
 
 
 def add_arguments(p):
+    from desktop.methods import METHODS     # numpy, so here: `import desktop.cli` stays light
+
     p.add_argument("raw", help="CSV with a header containing x,y,z (nT), or a simulator .npz; in time order")
     p.add_argument("-o", "--output", required=True, help="calibration JSON to write")
     p.add_argument("--method", choices=METHODS, default="streaming",

@@ -12,7 +12,7 @@ import math
 import sys
 import time
 
-from desktop.cli import CommandError
+from desktop.cli._errors import CommandError
 from desktop.cli._device import (add_port_arguments, connected, device_config, nT_per_code, quietly,
                                  stream_events)
 

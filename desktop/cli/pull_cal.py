@@ -1,6 +1,6 @@
 """fluxcal pull-cal -o CAL.json: the calibration in force on the handheld, validated, to a file."""
 
-from desktop.cli import CommandError
+from desktop.cli._errors import CommandError
 from desktop.cli._device import add_port_arguments, connected, device_config, nT_per_code
 
 HELP = "save the handheld's calibration in force to a JSON file (in ADC code units)"

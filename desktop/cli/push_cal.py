@@ -8,7 +8,7 @@ code units with the device's front-end scale (config scale_x/y/z).
 
 import json
 
-from desktop.cli import CommandError
+from desktop.cli._errors import CommandError
 from desktop.cli._device import add_port_arguments, connected, device_config, nT_per_code
 from shared.codes import MAX_LINE
 

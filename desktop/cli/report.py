@@ -10,8 +10,7 @@ most FIT_MAX samples spread over the capture).
 
 import os
 
-from desktop.cli import CommandError
-from desktop.methods import METHODS
+from desktop.cli._errors import CommandError
 
 HELP = "PNG plots and a markdown summary of a capture: raw ellipsoid vs corrected sphere, |B|, coverage, residuals"
 FIT_MAX = 20000          # samples the report's own fit takes (the streaming fit is pure Python)
@@ -20,6 +19,8 @@ CELLS = 4                # cells per cube-face edge: the firmware's default (96 
 
 
 def add_arguments(p):
+    from desktop.methods import METHODS     # numpy, so here: `import desktop.cli` stays light
+
     p.add_argument("capture", help="capture .npz (fluxcal capture or simulate) or CSV with x,y,z in nT")
     p.add_argument("--cal", metavar="CAL.json", help="calibration (fluxcal fit or pull-cal); default: fit here")
     p.add_argument("--method", choices=METHODS, default="streaming", help="the fit without --cal")

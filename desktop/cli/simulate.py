@@ -2,7 +2,7 @@
 
 import os
 
-from desktop.cli import CommandError
+from desktop.cli._errors import CommandError
 
 HELP = "simulate a capture: fluxgate, operator motion and two ADS1292 (writes .npz, optional CSV)"
 

@@ -9,7 +9,7 @@ which push-cal then sends to the handheld (converted back with its scale): the s
 |B| is compensated at the die temperature over the range they were measured.
 """
 
-from desktop.cli import CommandError
+from desktop.cli._errors import CommandError
 
 HELP = "fit temperature coefficients from calibrations at different temperatures"
 
