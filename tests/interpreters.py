@@ -28,3 +28,11 @@ def need(name):
 def float_eps(name):
     """Relative rounding unit (half an ulp) of the float type the interpreter computes in."""
     return 2.0 ** -FLOAT_BITS[name]
+
+
+def heap_bytes(name):
+    """The heap (bytes) a simulated board's interpreter runs with (desktop.devicesim.runners: "320K")."""
+    from desktop.devicesim.runners import heap_for
+
+    size = heap_for(name).upper()
+    return int(size[:-1]) * 1024 if size.endswith("K") else int(size)

@@ -13,6 +13,7 @@ import serial
 from desktop.devicesim.client import Client
 from desktop.devicesim.runners import start_device
 from desktop.devicesim.world import make_world
+from desktop.firmware.files import import_device
 from shared import codes
 from tests.device_session import on_pty
 from tests.interpreters import INTERPRETERS, need
@@ -33,6 +34,12 @@ def test_version_and_status(client):
     assert s["ok"] and s["state"] == "survey" and s["calibrated"] is False
     assert s["frames"] > 0 and s["overflow"] == 0 and s["badsync"] == 0
     assert abs(s["temp"] - 25.0) < 0.5          # the emulator's die at 25 C, through the temp MUX
+    # every conversion counted: between two readings the frames grow at the data rate, to a frame
+    # at each end (ticks_ms is whole ms: 1 frame at the default 1000 SPS)
+    later = client.ask("status", dt=1.0)
+    rate = import_device("config").SCHEMA["rate"][0]
+    grown = later["frames"] - s["frames"]
+    assert abs(grown - rate * (later["uptime_ms"] - s["uptime_ms"]) / 1000) <= 2 * rate / 1000, (s, later)
 
 
 @pytest.mark.parametrize("line, code", [
