@@ -73,15 +73,18 @@ def test_calibrate_auto_then_pull_cal_agrees_with_a_numpy_fit(tmp_path):
     from desktop.methods import fit_array, magnitudes
 
     with LiveHandheld(tmp_path / "hh", motion="hand", seconds=60, seed=7) as hh:
-        t0 = time.monotonic()
         out = ok(fluxcal("calibrate", "--auto", "--verify", 2, "--port", hh.port))
-        took = time.monotonic() - t0
+        # the firmware sends a progress event per second of its own clock, the CLI prints a line
+        # for each: seconds of rotation, not of this machine's wall clock
+        progress = [line for line in out.splitlines() if "(needs" in line and "predicted error" in line]
         verified = [line for line in out.splitlines() if line.startswith("verification:")]
         assert "coverage" in out and "READY" in out                   # progress lines, piped
         assert "+X" in out and "-Z" in out                             # the coverage map
         assert "calibration done: field" in out and "saved, in force" in out and "replaced: no calibration" in out
         assert "full calibration" in out
-        assert took < 25 + 2, "auto-finish took %.0f s of rotation" % took
+        # auto-finish comes at a provisional solve (every solve_every_s = 5 s); a hand at ~1 rev/s is
+        # ready by the third (test_device_calibration: 11 s measured), the fifth (25 s) at worst
+        assert 1 <= len(progress) <= 25 + 1, "auto-finish took %d s of rotation" % len(progress)
         ok(fluxcal("pull-cal", "-o", tmp_path / "device.json", "--port", hh.port))
         ok(fluxcal("capture", "--seconds", 5, "-o", tmp_path / "after.npz", "--port", hh.port))
         out = ok(fluxcal("monitor", "--seconds", 3, "--port", hh.port))
@@ -234,17 +237,22 @@ def test_port_held_by_another_program(handheld):
 
 @pytest.mark.parametrize("how", ["kill", "stop"])
 def test_device_killed_mid_stream(tmp_path, how):
-    """kill: the serial line goes away (unplugged); stop: the firmware stops, the line stays (hung)."""
+    """kill: the serial line goes away (unplugged); stop: the firmware stops, the line stays (hung).
+
+    The monitor runs without --seconds: only noticing the device gone can end it, with an error
+    (NO_HANG_S is the deadline for a hang, not a speed the test asks for)."""
     hh = LiveHandheld(tmp_path, seconds=30)
     try:
-        proc = subprocess.Popen([sys.executable, "-m", "desktop", "monitor", "--seconds", "30", "--port", hh.port],
+        proc = subprocess.Popen([sys.executable, "-m", "desktop", "monitor", "--port", hh.port],
                                 cwd=ROOT, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                 text=True)
         assert "|B|" in proc.stdout.readline()     # streaming (a line a second, piped)
         getattr(hh, how)()
-        t0 = time.monotonic()
-        out, err = proc.communicate(timeout=NO_HANG_S)
-        assert time.monotonic() - t0 < 10
+        try:
+            out, err = proc.communicate(timeout=NO_HANG_S)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            raise
     finally:
         hh.kill()
     fails_in_one_line(subprocess.CompletedProcess(proc.args, proc.returncode, out, err), hh.port)

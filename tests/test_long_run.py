@@ -37,10 +37,8 @@ def test_short_long_run_holds_every_invariant(figures):
     assert f["log_bytes_max"] <= f["log_bytes_allowed"] == 4 * LOG_FILE_BYTES
 
 
-def test_short_long_run_is_faster_than_real_time(figures):
-    """The CI run's wall time (loose: a shared machine): 180 simulated seconds well under
-    a minute; the 8-hour figure is docs/long-run.md's."""
-    assert figures["wall_s"] < 60.0, table(figures)
+# The run's wall time is a benchmark figure (docs/long-run.md, python -m desktop.bench.longrun),
+# measured there, not asserted here: a shared machine's speed is not the firmware's behaviour.
 
 
 def test_table_names_every_figure(figures):

@@ -4,15 +4,11 @@ at 10 C and 25 C (30 s each), a 180 s warm-up rotation from 10 to 25 C, spins at
 25 C. Issue 11's target at 25 C: compensated within 1.5x of the floor (the exact
 calibration there, on the same codes), while the uncompensated 10 C calibration grows."""
 
-import time
-
 from desktop.bench.surveyday import TARGET, run, tables
 
 
 def test_compensated_spins_stay_within_the_target_of_the_floor():
-    t = time.time()
     res = run(sensors=3, cal_s=30.0, warmup_s=180.0, temps=(10.0, 25.0))
-    took = time.time() - t
     for r in res:
         spins = r["spins"]
         floor = spins[25.0]["floor"][0]
@@ -21,4 +17,3 @@ def test_compensated_spins_stay_within_the_target_of_the_floor():
         unc = spins[25.0]["uncompensated"][0]
         assert unc > 3 * floor and unc > 3 * spins[10.0]["uncompensated"][0], tables(res, (10.0, 25.0))
         assert r["warmup"]["gains"] == "per_axis"
-    assert took < 30
