@@ -37,8 +37,10 @@ def test_full_sphere_recordings(name, scatter):
     # Within 20 % of the documented scatter, and below the uncalibrated spread
     # (the noisy QMC log is mostly noise: 9.7 % raw, 6 % calibrated).
     assert abs(rel / scatter - 1) < 0.2
+    # 0.7: the noisy log keeps 0.62 of its spread (noise a fit cannot remove), the others 0.03-0.30
     assert rel < 0.7 * raw_spread
-    # Same data, same objective family: the geometric MLE cannot do much better.
+    # Same data, same objective family: the geometric MLE cannot do much better (measured: at
+    # most 1.1 % lower, on the noisy log; 10 % would be a different optimum, not rounding).
     mle = fit_array(h, "mle")
     assert rel < 1.1 * np.std(magnitudes(mle, h)) / mle.field
 
