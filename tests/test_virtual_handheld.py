@@ -17,7 +17,6 @@ import pytest
 import serial
 
 from desktop.devicesim.procedure import events, handheld_config
-from desktop.devicesim.realtime import BEHIND_S
 from desktop.devicesim.runners import install_firmware, start_device, write_config
 from desktop.devicesim.virtual_handheld import Hands, VirtualHandheld, led_says_turn, live_world
 from desktop.firmware.files import import_device
@@ -152,9 +151,10 @@ def test_calibrating_the_virtual_handheld_from_its_serial_line(tmp_path):
         assert _ask(ser, "start-cal")["ok"]
         buf = _read_until(ser, b'"state": "done"', 60.0)
         assert b'"state": "done"' in buf, buf[-400:]
-        # paced: >= 11 s of simulated rotation took as long on the wall clock, so the pacer has
-        # measured its capacity (a 5 s window); it kept up within its contract (else it stops)
-        assert hh.pacer.capacity is not None and hh.pacer.lag <= BEHIND_S, (hh.pacer.capacity, hh.pacer.lag)
+        # paced: the pacer never lets simulated time run ahead of the wall clock, so >= 11 s of
+        # rotation took >= 11 s here and it has measured its capacity (over 5 s windows). How
+        # much it had to spare is the handheld bench's figure: a speed, not asked of a test.
+        assert hh.pacer.capacity is not None
         assert _ask(ser, "status")["calibrated"]
         assert os.path.exists(os.path.join(flash, "cal.json"))
 
