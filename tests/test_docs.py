@@ -703,6 +703,26 @@ def test_readme_is_short():
 
 
 
+def code_doc_citations(text):
+    return re.findall(r"\b(?:docs/[\w./-]+\.(?:md|png)|README\.md|CHANGELOG\.md)", text)
+
+
+def test_code_cites_only_docs_that_exist():
+    """A comment or docstring that sends the reader to docs/NAME.md: the file is there."""
+    missing = []
+    for top in CODE_DIRS:
+        for folder, dirs, names in os.walk(os.path.join(ROOT, top)):
+            for name in names:
+                if name.endswith(".py") and name != "test_docs.py":    # its planted names
+                    path = os.path.join(folder, name)
+                    with open(path, encoding="utf-8") as fh:
+                        for cited in code_doc_citations(fh.read()):
+                            if not os.path.exists(os.path.join(ROOT, cited)):
+                                missing.append("%s cites %s" % (_rel(path), cited))
+    assert not missing, "\n".join(missing)
+    assert code_doc_citations("see docs/experiments.md, lag") == ["docs/experiments.md"]   # what it finds
+
+
 def test_readme_command_table_lists_every_subcommand():
     """The README's table of commands: one row per `fluxcal` subcommand, none invented."""
     with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as fh:
