@@ -107,7 +107,8 @@ def test_cores_own_refusal_is_lifted_by_accept_anyway(tmp_path):
     assert proc.returncode == 1 and one_line(proc.stderr).startswith("fluxcal: calibration failed (degenerate_coverage)")
     proc = fluxcal("fit", src, "-o", tmp_path / "b.json", "--accept-anyway")
     assert proc.returncode == 0 and codes.PREDICTED_ERROR_TOO_HIGH in one_line(proc.stderr)
-    assert load_calibration(str(tmp_path / "b.json")).diagnostics["predicted_error"] > 100
+    cal = load_calibration(str(tmp_path / "b.json"))
+    assert cal.diagnostics["predicted_error"] > 0.01 * cal.field     # past the core's refusal: 1 % of the field
 
 
 def test_prior_makes_a_quick_recalibration_from_a_cap(tmp_path):

@@ -211,7 +211,9 @@ def test_clipping_is_named_with_its_own_reason(tmp_path):
         assert r["state"] == "failed" and r["reason"] == "clipped", r
         assert "gain" in r["msg"] and " on x" in r["msg"]
         s = ask(w, dev, "status")
-        assert s["clipped"] > 100 and s["calibrated"] is False
+        # x beyond +-10 uT of the 47 uT field is 79 % of a uniform sphere's directions (|cos| > 0.21);
+        # a hand's are not uniform: half the samples at least (measured 82 %)
+        assert s["clipped"] > 0.5 * s["samples"] and s["calibrated"] is False, s
     finally:
         dev.close()
 
