@@ -41,7 +41,7 @@ NO_COVERAGE = "no_coverage"         # coverage before any calibration since boot
 # ****** calibration refusals: the "reason" of a failed `cal` event, of finish-cal's
 # result and status's last_cal; set-cal answers the acceptance ones as its error code.
 # On the laptop FitError.reason (fluxcal fit, report) carries the fit's ones. ******
-# The fit itself (shared/solver.py, shared/quick.py):
+# The fit itself (shared/solver.py, iteration.py, result.py, predicted.py; shared/quick.py):
 TOO_FEW_SAMPLES = "too_few_samples"
 DEGENERATE_COVERAGE = "degenerate_coverage"   # the samples leave the ellipsoid undetermined
 NOT_ELLIPSOID = "not_ellipsoid"

@@ -24,9 +24,8 @@ fitted with ``solve(scale=lsb)`` and mapped back with
 """
 
 from shared import solver
+from shared.errors import FitError  # noqa: F401 - the fit's error, imported from here by its users
 from shared.moments import COUNT, bit_length
-
-FitError = solver.FitError
 
 try:
     import micropython  # noqa: F401  (MicroPython, CircuitPython)

@@ -1,4 +1,5 @@
-"""Small dense linear algebra in a chosen number type (no numpy).
+"""Small dense linear algebra in a chosen number type (no numpy), and the scalar
+functions MicroPython's math lacks.
 
 Every routine takes plain lists and does its arithmetic on whatever number
 objects it is given: Python floats on the device (32-bit on rp2/esp32/stm32,
@@ -14,6 +15,28 @@ def isfinite(x):
     # inf - inf and nan - nan are nan, which compares unequal to 0; works for
     # float, numpy scalars and number classes alike (math.isfinite does not).
     return x - x == 0
+
+
+def all_finite(values):
+    for x in values:
+        if not isfinite(x):
+            return False
+    return True
+
+
+def log1p(x):
+    # MicroPython's math has no log1p; near convergence x ~ 1e-12 and
+    # log(1 + x) would round it away.
+    if -1e-4 < x < 1e-4:
+        return x - x * x / 2.0 + x * x * x / 3.0
+    return math.log(1.0 + x)
+
+
+def expm1(x):
+    if -1e-4 < x < 1e-4:
+        return x + x * x / 2.0 + x * x * x / 6.0
+    return math.exp(x) - 1.0
+
 
 
 def cholesky(a, num):

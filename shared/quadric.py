@@ -143,7 +143,7 @@ class Problem:
         |A v|^2 + 2 tr(A) r) + O(s2^2): minimising sum r^2 leans towards
         smaller |A v|, a bias of -H^-1 s2 g (second order in the noise, and on
         a small cap, where H is nearly singular, far above the spread:
-        shared.solver._predicted_error adds it).
+        shared.predicted adds it).
         """
         num = self.num
         nf = self.nf

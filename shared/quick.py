@@ -23,7 +23,7 @@ an unchanged shape the likelihood ratio N log(RSS_quick / RSS_full) is
 chi^2 with 6 less the gains' degrees of freedom, so above its 0.1 % point the shape has
 moved and that fit is returned instead (mode "reshaped").
 
-Predicted error: the posterior covariance of the parameters fitted (shared.solver) and
+Predicted error: the posterior covariance of the parameters fitted (shared.predicted) and
 the previous calibration's own predicted error, which its shape carries into
 this one, added in quadrature.
 
@@ -36,10 +36,12 @@ to be no better raises FitError(not_better), so the previous one stays.
 import math
 
 from shared.codes import DEGENERATE_COVERAGE, NOT_BETTER
+from shared.errors import FitError
+from shared.iteration import State, iterate, log_ratio, quantise
 from shared.prior import make_prior
 from shared.quadric import FRAC, PAIR
-from shared.solver import (FitError, _State, _finish, _quantise, iterate, log_ratio, setup,
-                           solve_state)
+from shared.result import finish
+from shared.solver import setup, solve_state
 
 # the 0.1 % points of chi^2 with 0..5 degrees of freedom: a model with more gains against
 # one with fewer; the full fit's shape (six) against the gains fitted
@@ -82,14 +84,14 @@ class _GainsAndOffsets:
         # a (1 + c) in integers, per term: the shape within each group stays the previous
         # one to the last bit, whatever the float width that computed c (shared.solver)
         k = len(self.counts)
-        cs = [_quantise(x) for x in step[:k]]
+        cs = [quantise(x) for x in step[:k]]
         da = []
         for m in range(6):
             c = 0
             for g in range(k):
                 c += self.counts[g][m] * cs[g]
             da.append((st.a_int[m] * c) >> FRAC)
-        return da, [_quantise(x) for x in step[k:]]
+        return da, [quantise(x) for x in step[k:]]
 
 
 def _rms(pb, rss, field):
@@ -118,7 +120,7 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
     if not turn >= MIN_TURN:
         raise FitError(DEGENERATE_COVERAGE, "the samples turned by %.1f degrees rms: turn the instrument"
                        % math.degrees(turn))
-    stale = _State(pb, pr, [_quantise(x) for x in pr.a_frame], [_quantise(x) for x in pr.f_target])
+    stale = State(pb, pr, [quantise(x) for x in pr.a_frame], [quantise(x) for x in pr.f_target])
     # a provisional estimate (a device's, every few seconds while collecting: max_iter <= 2)
     # skips the shape test, a whole nine-parameter fit; the final solve runs it
     provisional = max_iter <= 2
@@ -136,7 +138,7 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
         if lr > CHI2_001[len(more.counts) - len(basis.counts)]:
             basis, st, h, gains_lr = more, st2, h2, lr
     dirs = basis.directions(st)
-    cal = _finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, float("inf"), h, dirs)
+    cal = finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, float("inf"), h, dirs)
     d = cal.diagnostics
     d["rejected"] = rejected
     d["mode"] = "quick"

@@ -87,13 +87,13 @@ def test_narrow_floats_stop_on_the_same_integers(case, monkeypatch):
     import shared.solver as solver
 
     states = []
-    finish = solver._finish
+    finish = solver.finish
 
     def spy(pb, pr, st, *args):
         states.append((list(st.a_int), list(st.f_int)))
         return finish(pb, pr, st, *args)
 
-    monkeypatch.setattr(solver, "_finish", spy)
+    monkeypatch.setattr(solver, "finish", spy)
     raw, _, _ = scenario(21, **case)
     fit = accumulate(raw, LSB)
     for num in (float, np.float32, RoundedFloat(22)):

@@ -4,7 +4,7 @@
     h = honest_error(cal, raw, pinned=field is not None or prior is not None)
     h["predicted_error"], h["tau_int"], h["floor"]     # nT, samples, nT
 
-The core's predicted full-sphere error (shared.solver) is the posterior
+The core's predicted full-sphere error (shared.predicted) is the posterior
 spread of a fit whose residuals are white noise: Cov(p) = (RSS/N) H^-1. Two
 things break that when the sensor moves faster than it can follow (a 5 Hz
 fluxgate turned by hand, an ADC window that smears a turning vector): the

@@ -5,7 +5,7 @@
 # from the file named in argv[1], fits it with shared.fit (the repository root is
 # argv[2]) and prints one JSON line: the exact power sums, the calibration, and the
 # solver's fixed-point integer state at convergence (read by wrapping
-# shared.solver._finish, which receives it).
+# shared.solver.finish, which receives it).
 import json
 import sys
 
@@ -18,7 +18,7 @@ def main(job_path, root):
     from shared.fit import EllipsoidFit, FitError
 
     states = []
-    _finish = solver._finish
+    _finish = solver.finish
 
     def _spy(pb, pr, st, *args):
         states.append([[str(x) for x in st.a_int], [str(x) for x in st.f_int]])
@@ -33,7 +33,7 @@ def main(job_path, root):
     prior = Calibration.from_dict(job["prior"]) if job.get("prior") else None
     job = None   # the points' lists: free before the solve (a board's heap is small)
     out = {"sums": [str(s) for s in fit.sums()]}
-    solver._finish = _spy
+    solver.finish = _spy
     try:
         cal = fit.solve(field=field, scale=scale, prior=prior)
         out["calibration"] = cal.to_dict()
@@ -41,7 +41,7 @@ def main(job_path, root):
     except FitError as exc:
         out["reason"] = exc.reason
     finally:
-        solver._finish = _finish
+        solver.finish = _finish
     print(json.dumps(out))
 
 
