@@ -19,6 +19,7 @@ only clock the firmware sees either way).
 """
 
 import atexit
+import json
 import os
 import select
 import signal
@@ -177,6 +178,13 @@ class PicoBoard:
     def power_cycle(self):
         """Off and on: the chip is re-created from the flash file's contents."""
         self.proc.send_signal(signal.SIGUSR2)
+
+    def figures(self, timeout=10.0):
+        """The runner's counts now, a dict: ns (emulated since power-on), asleep_ns (of which the
+        core slept: cycles awake = (ns - asleep_ns) / 8 at 125 MHz), wall_ms, bridge (pins.mjs's)."""
+        n = len(self.events)
+        self.proc.send_signal(signal.SIGUSR1)
+        return json.loads(self.wait_event("figures ", timeout=timeout, after=n).split(" ", 1)[1])
 
     def running(self):
         return self.proc is not None and self.proc.poll() is None

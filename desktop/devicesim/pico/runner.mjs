@@ -117,6 +117,9 @@ function offerHostBytes() {
   mcu.usbCtrl.endpointReadDone(cdc.outEndpoint, out.subarray(0, n));
 }
 
+const NOISE = /^Unimplemented peripheral|invalid SIO address:? (0x)?5[08]|address:? 1400[02]00[04]/;
+console.warn = (msg) => { if (!NOISE.test(msg)) say(msg); };     // rp2040js's SIO warns on the console
+
 function createChip(why) {
   clock = new SimulationClock(125e6);
   mcu = new RP2040(clock);
@@ -125,8 +128,8 @@ function createChip(why) {
     // noise: one core is emulated (core 1's FIFO at SIO 0x50/0x58, SOURCE.md); the XIP cache's
     // control registers (0x14000000, flushed after each flash write) and the clock, syscfg and
     // voltage-regulator registers MicroPython sets up at boot are not modelled
-    warn(name, msg) { if (!/^Unimplemented peripheral/.test(msg)) say(`${name}: ${msg}`); },
-    error(name, msg) { if (!/invalid SIO address 0x5[08]|address:? 1400[02]00[04]/.test(msg)) say(`${name}: ${msg}`); },
+    warn(name, msg) { if (!NOISE.test(msg)) say(`${name}: ${msg}`); },
+    error(name, msg) { if (!NOISE.test(msg)) say(`${name}: ${msg}`); },
   };
   mcu.loadBootrom(bootrom);              // this resets the chip, which erases its flash: load it after
   mcu.flash.set(flash);
@@ -147,6 +150,7 @@ function createChip(why) {
   };
   // power on: the bus hands every GPIO's input its idle level before the firmware runs
   for (const [pin, level] of Object.entries(inputLevels)) mcu.gpio[pin].setInputValue(level);
+  asleepNs = 0;
   anchor();
   say(`boot (${why})`);
   if (world) world.attach(mcu, clock);
@@ -173,10 +177,12 @@ const inputLevels = {};
 for (const pin of (args.high || '').split(',').filter(Boolean)) inputLevels[pin] = true;
 
 // ****** the loop: run, yield, idle (things 2 and 3) ******
+let asleepNs = 0;                        // since power-on: cycles awake = (clock.nanos - asleepNs) / 8
 let anchorWall = 0, anchorEmu = 0, idleTimer = null, sleeping = false, paused = false, scheduled = false;
 const world = args.world ? new WorldBridge(...args.world.split(',').map(Number), {
   pause() { paused = true; },
   resume() { paused = false; wake(); },
+  end() { quit(0); },
 }) : null;
 function anchor() { anchorWall = performance.now(); anchorEmu = clock.nanos; }
 function wallNanos() { return anchorEmu + (performance.now() - anchorWall) * 1e6; }
@@ -199,7 +205,7 @@ function run() {
         continue;
       }
       if (!clock.nextAlarm) {            // asleep with nothing due: wait for the host
-        if (idleMode === 'paced') clock.tick(Math.max(0, wallNanos() - clock.nanos));
+        if (idleMode === 'paced') sleep(Math.max(0, wallNanos() - clock.nanos));
         sleeping = true;
         world?.flush();
         return;
@@ -214,11 +220,17 @@ function run() {
           return;
         }
       }
-      clock.tick(due - clock.nanos);
+      sleep(due - clock.nanos);
     }
   }
   world?.flush();
   if (!paused) schedule();              // else the world's answer resumes it
+}
+
+// the core asleep (WFI/WFE) for ns: emulated time that costs no cycles (the load figures)
+function sleep(ns) {
+  asleepNs += ns;
+  clock.tick(ns);
 }
 
 function schedule() {
@@ -242,9 +254,13 @@ process.stdin.on('end', () => quit(0));
 process.on('SIGTERM', () => quit(0));
 process.on('SIGINT', () => quit(0));
 process.on('SIGUSR2', () => { saveFlash(); createChip('power cycle'); wake(); });
+// SIGUSR1: one line of figures (pico_board.PicoBoard.figures): emulated ns since power-on, of
+// which asleep, and the bridge's counts
+process.on('SIGUSR1', () => say(`figures ${JSON.stringify({ ns: clock.nanos, asleep_ns: asleepNs,
+  wall_ms: performance.now(), bridge: world?.stats ?? null })}`));
 process.stdout.on('error', () => quit(0));   // the host side is gone
 
 createChip('power on');
 schedule();
 // PICO_DEBUG=1: where the core is, once a wall second (a firmware that hangs, a wait that never ends)
-if (process.env.PICO_DEBUG) setInterval(() => say(`t=${(clock.nanos / 1e9).toFixed(4)} pc=0x${mcu.core.PC.toString(16)} waiting=${mcu.core.waiting} sleeping=${sleeping} pendingOut=${pendingOut} ep=${cdc.outEndpoint} alarm=${!!clock.nextAlarm}`), 1000);
+if (process.env.PICO_DEBUG) setInterval(() => say(`${JSON.stringify(world?.stats)} t=${(clock.nanos / 1e9).toFixed(4)} pc=0x${mcu.core.PC.toString(16)} waiting=${mcu.core.waiting} sleeping=${sleeping} pendingOut=${pendingOut} ep=${cdc.outEndpoint} alarm=${!!clock.nextAlarm}`), 1000);
