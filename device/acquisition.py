@@ -121,6 +121,12 @@ class Acquisition:
         """Blocks thrown away for a bad status header or a DRDY gap (polled DRDY)."""
         return self.state[DISCARDED]
 
+    def status(self):
+        """Its part of `status`: the counters of the DRDY path and the ring."""
+        st = self.state
+        return {"frames": st[FRAMES], "overflow": st[OVERFLOW], "missed": st[MISSED], "badsync": st[BADSYNC],
+                "discarded": st[DISCARDED], "gaps": self.gaps, "samples": self.samples}
+
     # ****** main loop, polled DRDY only ******
     def account_gap(self, frames):
         """`frames` conversions passed unseen (the main loop was busy; polled DRDY).

@@ -1,8 +1,14 @@
-"""A crash loop cannot brick the instrument: boots that never reach a healthy main loop are counted.
+"""A crash loop cannot brick the instrument: boots that never reach a healthy main loop are counted,
+and a main loop that keeps failing stops applying the calibration (safe mode).
 
     starts, crash = bootguard.begin(root)   # at boot, before the calibration is loaded
     bootguard.healthy(root)                 # the main loop ran HEALTHY_MS without an escaping error
     bootguard.crashed(root, "TypeError: ...")   # app.start: an exception escaped the app
+
+    guard = Guard(board, proto)   # app.py: begin() at boot, safe_mode its verdict
+    guard.passed()                # a main-loop pass ran through
+    guard.loop_error(e)           # an exception escaped a pass: counted, said, survived
+    guard.leave()                 # the operator chose a calibration: safe mode has done its job
 
 boot.txt holds the boots since the last healthy one and the last crash's text.
 The app comes up in safe mode (the stored calibration not applied, the protocol
@@ -13,8 +19,16 @@ A quick power-off within HEALTHY_MS counts as an unfinished boot too; two in a r
 are needed before that alone means safe mode.
 On a filesystem the firmware cannot write (CircuitPython with the USB drive
 writable by the host, boot.py) the guard cannot count and stays out of the way.
+
+Nothing stops the main loop (docs/reliability.md): an exception in a pass is
+counted, reported (status, an `error` event at most once a second) and the loop
+goes on; a calibration session it interrupts ends with reason internal_error.
+SAFE_AFTER_ERRORS passes in a row failing with a calibration applied drop it
+(safe mode, a `safe_mode` event): defence in depth, validation should make it
+unreachable.
 """
 
+import gc
 import os
 
 from store import file_path
@@ -23,6 +37,8 @@ NAME = "boot.txt"
 SAFE_AFTER = 2         # unfinished boots before this one
 HEALTHY_MS = 5000      # main loop time without an escaping error that counts as a good boot
 _TEXT_MAX = 200
+_ERROR_EVENT_MS = 1000   # at most one `error` event a second (all are counted)
+SAFE_AFTER_ERRORS = 50   # passes in a row failing with a calibration applied: drop it (safe mode)
 
 
 def _read(root):
@@ -75,3 +91,63 @@ def healthy(root):
 def crashed(root, text):
     starts, _ = _read(root)
     _write(root, starts, text)
+
+
+class Guard:
+    """The boot's verdict and the main loop's errors. flow (the calibration in force, a
+    session to end) is wired by app.py."""
+
+    def __init__(self, board, proto):
+        self.board = board
+        self.proto = proto
+        self.boot_ms = board.ticks_ms()
+        starts, crash = begin(board.root)
+        self.safe_mode = safe_reason(starts, crash)   # why the calibration is not applied, or None
+        self.errors = 0            # exceptions caught in the main loop since boot
+        self.last_error = None
+        self.flow = None
+        self._in_row = 0
+        self._error_event_ms = None
+        self._healthy = False
+
+    def uptime_ms(self):
+        b = self.board
+        return b.ticks_diff(b.ticks_ms(), self.boot_ms)
+
+    def passed(self):
+        """A pass ran through: the failures in a row end; HEALTHY_MS of them make a good boot."""
+        self._in_row = 0
+        if not self._healthy and self.uptime_ms() >= HEALTHY_MS:
+            self._healthy = True
+            healthy(self.board.root)
+
+    def loop_error(self, e):
+        """An exception escaped a pass: count it, say it, cancel what it interrupted, go on."""
+        self.errors += 1
+        self._in_row += 1
+        self.last_error = "%s: %s" % (e.__class__.__name__, e)
+        if isinstance(e, MemoryError):
+            gc.collect()
+        b = self.board
+        now = b.ticks_ms()
+        if self._error_event_ms is None or b.ticks_diff(now, self._error_event_ms) >= _ERROR_EVENT_MS:
+            self._error_event_ms = now
+            self.proto.event("error", {"where": "main_loop", "error": self.last_error[:200], "count": self.errors})
+        flow = self.flow
+        flow.abort("internal_error", self.last_error[:200])
+        if self._in_row >= SAFE_AFTER_ERRORS and flow.cal is not None:
+            self.safe_mode = "the main loop failed %d times in a row with the calibration applied: %s" % (
+                self._in_row, self.last_error[:120])
+            flow.drop_calibration()
+            self.proto.event("safe_mode", {"reason": self.safe_mode})
+
+    def leave(self):
+        """The operator chose a calibration (set-cal, clear-cal, a new one): safe mode has done its job."""
+        if self.safe_mode:
+            self.safe_mode = None
+            healthy(self.board.root)
+
+    def status(self):
+        """Its part of `status`."""
+        return {"safe_mode": self.safe_mode, "errors": self.errors, "last_error": self.last_error,
+                "uptime_ms": self.uptime_ms()}

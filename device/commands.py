@@ -3,7 +3,8 @@
     Protocol(board, TABLE, app)      # protocol.py frames the lines, calls TABLE[cmd](app, args)
 
 A handler gets the App and the text after the command word, and returns the
-reply's fields as a dict. A request it refuses raises ProtocolError with a
+reply's fields as a dict; it acts through the App's owners (app.flow, app.output,
+app.supervisor, app.guard, app.acq), each of which gives its own part of `status`. A request it refuses raises ProtocolError with a
 stable code; a bad value from Calibration.from_dict or config.check is a
 ValueError (bad_argument / bad_value).
 """
@@ -15,7 +16,6 @@ import sys
 import session
 from acceptance import check_calibration
 import config as cfgmod
-from acquisition import BADSYNC, FRAMES, MISSED, OVERFLOW
 from protocol import VERSION, ProtocolError, json_number
 from shared.calibration import Calibration
 
@@ -32,7 +32,7 @@ def parse_value(text):
 
 
 def _idle(app):
-    if app.session is not None:
+    if app.flow.session is not None:
         raise ProtocolError("busy", "calibration in progress; cancel-cal first")
 
 
@@ -41,52 +41,19 @@ def version(app, args):
 
 
 def status(app, args):
-    out = {
-        "state": "fault" if app.fault else ("calibrating" if app.session else "survey"),
-        "fault": app.fault,
-        "fault_code": app.fault_code,
-        "safe_mode": app.safe_mode,
-        "errors": app.errors,
-        "last_error": app.last_error,
-        "calibrated": app.cal is not None,
-        "cal_source": app.cal_source,
-        "cal_problem": app.cal_problem,
-        "config_problems": app.config_problems,
-        "stream": app.stream,
-        "uptime_ms": app.board.ticks_diff(app.board.ticks_ms(), app.boot_ms),
-        "temp": json_number(app.temp_c, 2),
-        "temp_warn": app.cal_temp_warn,
-        # which kind made the calibration in force, and the range its temperature
-        # coefficients were measured over (None: uncompensated)
-        "cal_kind": app.cal.meta.get("kind", "full") if app.cal is not None else None,
-        "tempco_range": app.cal.tempco["range_c"] if app.cal is not None and app.cal.tempco else None,
-        "last_cal": app.last_result,
-    }
-    if app.adc is not None:
-        acq = app.acq
-        st = acq.state
-        out["frames"] = st[FRAMES]
-        out["overflow"] = st[OVERFLOW]
-        out["missed"] = st[MISSED]
-        out["badsync"] = st[BADSYNC]
-        out["discarded"] = acq.discarded
-        out["gaps"] = acq.gaps
-        out["samples"] = acq.samples
-        out["spikes"] = app.screen.spikes
-        out["clipped"] = app.screen.clipped
-        if app.health is not None:
-            out["adc_faults"] = app.health.faults
-    if app.session is not None:
-        out["cal"] = app.session.progress()
-    if app.log is not None:
-        out["log"] = {"lines": app.log.lines, "error": app.log.error}
+    flow = app.flow
+    out = {"state": "fault" if app.supervisor.fault else ("calibrating" if flow.session else "survey"),
+           "config_problems": app.config_problems}
+    for part in (app.supervisor, app.guard, flow, app.output):
+        out.update(part.status())
     if hasattr(gc, "mem_free"):   # MicroPython, CircuitPython
         out["mem_free"] = gc.mem_free()
     return out
 
 
 def get_cal(app, args):
-    return {"cal": app.cal.to_dict() if app.cal is not None else None}
+    cal = app.flow.cal
+    return {"cal": cal.to_dict() if cal is not None else None}
 
 
 def set_cal(app, args):
@@ -98,11 +65,11 @@ def set_cal(app, args):
     except ValueError:
         raise ProtocolError("bad_json", "set-cal argument is not valid JSON")
     cal = Calibration.from_dict(d)  # ValueError names the problem
-    problem = check_calibration(cal, app.cfg, app.scale)
+    problem = check_calibration(cal, app.cfg, app.flow.scale)
     if problem:
         raise ProtocolError(problem[0], problem[1])
     cal.meta["source"] = "set-cal"
-    saved, err = app.install(cal)
+    saved, err = app.flow.install(cal)
     if not saved:
         raise ProtocolError("io_error", "calibration active but not saved: %s" % err)
     return {"saved": True}
@@ -111,7 +78,7 @@ def set_cal(app, args):
 def clear_cal(app, args):
     _idle(app)
     try:
-        app.clear_calibration()
+        app.flow.clear()
     except OSError as e:
         raise ProtocolError("io_error", "cal.json could not be removed (%s): the calibration stays in force"
                             % (e,))
@@ -122,21 +89,22 @@ def start_cal(app, args):
     # start-cal [auto|full|quick]: auto (the button's short press) ends quick when a
     # calibration is in force and the coverage stays partial, else full
     kind = args.strip() or session.AUTO
-    app.start_session(kind)
-    return {"kind": app.session.kind}
+    app.flow.start(kind)
+    return {"kind": app.flow.session.kind}
 
 
 def finish_cal(app, args):
-    return {"result": app.finish_session()}
+    return {"result": app.flow.finish()}
 
 
 def cancel_cal(app, args):
-    app.cancel_session()
+    app.flow.cancel()
     return {}
 
 
 def get_coverage(app, args):
-    cov = app.session.cov if app.session is not None else app.last_coverage
+    flow = app.flow
+    cov = flow.session.cov if flow.session is not None else flow.last_coverage
     if cov is None:
         raise ProtocolError("no_coverage", "no calibration since boot")
     return {"cells_per_edge": cov.edge, "counts": list(cov.counts), "fraction": json_number(cov.fraction())}
@@ -148,8 +116,8 @@ def stream(app, args):
         words = words[1:] or ["corrected"]
     if len(words) != 1 or words[0] not in ("off", "raw", "corrected"):
         raise ProtocolError("bad_argument", "stream takes: on [raw|corrected] | raw | corrected | off")
-    app.set_stream(words[0])
-    return {"stream": app.stream}
+    app.output.set_stream(words[0])
+    return {"stream": app.output.stream}
 
 
 def config(app, args):

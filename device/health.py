@@ -1,8 +1,13 @@
-"""ADC health at run time, from the acquisition's counters: named faults, and when to re-probe.
+"""ADC health at run time: named faults from the acquisition's counters, and the chips' supervisor.
 
     health = Health(acq, rate)
     problem = health.check(now_ms, diff)   # None, or (code, message) once a fault shows
     health.restart(now_ms)                 # conversions (re)started: judge afresh
+
+    sup = AdcSupervisor(board, proto, led, acq)   # app.py wires it
+    sup.start(cfg)             # probe and start the chips (or reconfigure running ones)
+    sup.check(now_ms)          # every main-loop pass: a fault named, a re-probe due, a fault cleared
+    sup.status()               # its part of `status`
 
 The DRDY handler counts every conversion (FRAMES) and every frame whose status
 header is not 1100 (BADSYNC) [DS 8.5.1.5]; this module looks at them a few times
@@ -13,13 +18,19 @@ a second, so a chip that dies after boot is named instead of the data just stopp
 - adc_silent / adc_all_ones / adc_bad_headers: at least half the frames read in
   the last period had a bad header; the last bad byte names it: 0x00 (the chip
   does not drive MISO: unpowered, CS open), 0xFF (MISO stuck high), else noise.
-The app then stops the survey output and calibration and re-probes the chips
-every REPROBE_MS (reset, ID, registers, RDATAC: ads1292.py begin); the
+A chip that does not answer its probe (at boot or at a re-probe) is adc_probe.
+The supervisor then stops the survey output and calibration (the fault event, the
+FAULT LED, a calibration in progress ends with reason "fault") and re-probes the
+chips every REPROBE_MS (reset, ID, registers, RDATAC: ads1292.py begin); the
 interval doubles, up to 60 s, each time a fault comes back within a minute of
-clearing, so a flaky chip is not reset twice a second.
+clearing, so a flaky chip is not reset twice a second. A chip that answers again
+is cleared once conversions flow healthy for a check period, not on its registers
+alone (a stuck DRDY passes a probe).
 """
 
+import led as ledp
 from acquisition import BADSYNC, BLOCKS, FRAMES, LASTBAD
+from ads1292 import ADS1292Pair
 
 CHECK_MS = 250
 REPROBE_MS = 2000
@@ -89,3 +100,105 @@ class Health:
 
     def cleared(self, now):
         self.cleared_at = now
+
+
+class AdcSupervisor:
+    """The ADS1292 pair's life in the app: started, watched (Health), faulted, re-probed, cleared.
+
+    flow (a fault ends its session) and on_cleared (the app sets its pipeline up
+    again) are wired by app.py."""
+
+    def __init__(self, board, proto, led, acq):
+        self.board = board
+        self.proto = proto
+        self.led = led
+        self.acq = acq
+        self.cfg = None
+        self.adc = None            # the ADS1292Pair, once started
+        self.health = None         # once the chips answered
+        self.fault = None          # the fault's message (None: healthy)
+        self.fault_code = None
+        self.verifying = False     # re-probed: conversions flow, not yet judged healthy
+        self.flow = None
+        self.on_cleared = None
+        self._last_code = None
+        self._reprobe_at = None
+
+    def start(self, cfg, reprobe=False):
+        """Probe and start the chips (a re-probe resets them first), or reconfigure running ones."""
+        self.cfg = cfg
+        gains = (cfg["gain_x"], cfg["gain_y"], cfg["gain_z"])
+        try:
+            if self.adc is None:
+                self.adc = ADS1292Pair(self.board, self.acq, cfg["rate"], gains, cfg["vref_4v"])
+                self.adc.begin()
+            elif reprobe:
+                self.adc.begin()
+            else:
+                self.adc.reconfigure(cfg["rate"], gains)
+            # again after a reconfigure: a polling HAL restarts its gap clock at the new rate
+            self.board.attach_drdy(self.acq.isr, self.adc.rate, self.acq.account_gap)
+            now = self.board.ticks_ms()
+            if self.health is None:
+                self.health = Health(self.acq, self.adc.rate, now)
+            else:
+                self.health.rate_changed(self.adc.rate, now)
+            # a chip that failed answers again: it is cleared once conversions flow healthy
+            # for a check period (Health), not on its registers alone (a stuck DRDY
+            # passes a probe)
+            self.verifying = self.fault is not None
+        except OSError as e:
+            self.verifying = False
+            self.set_fault("adc_probe", str(e))
+
+    def rate_changed(self, rate, now):
+        if self.health is not None:
+            self.health.rate_changed(rate, now)
+
+    def set_fault(self, code, msg):
+        b = self.board
+        now = b.ticks_ms()
+        first = self.fault is None
+        self.fault = msg
+        self.fault_code = code
+        if self.health is not None and first:
+            self.health.fault_seen(now, b.ticks_diff)
+        self._reprobe_at = now
+        self.led.set(ledp.FAULT)
+        if first or code != self._last_code:
+            self.proto.event("fault", {"code": code, "msg": msg})
+        self._last_code = code
+        self.flow.abort("fault", msg, False)
+
+    def check(self, now):
+        """Health of a running ADC; re-probe a faulty one every health.reprobe_ms."""
+        b = self.board
+        if self.fault and not self.verifying:
+            ms = self.health.reprobe_ms if self.health is not None else REPROBE_MS
+            if self._reprobe_at is None or b.ticks_diff(now, self._reprobe_at) >= ms:
+                self._reprobe_at = now
+                self.start(self.cfg, reprobe=True)
+            return
+        if self.health is None:
+            return
+        problem = self.health.check(now, b.ticks_diff)
+        if problem is not None:
+            self.verifying = False
+            self.set_fault(problem[0], problem[1])
+        elif self.verifying and self.health.flowing:
+            self.verifying = False
+            self.health.cleared(now)
+            self.proto.event("fault", {"code": None, "cleared": self.fault_code})
+            self.fault = None
+            self.fault_code = None
+            self._reprobe_at = None
+            self.on_cleared()
+
+    def status(self):
+        """Its part of `status`: the fault, the acquisition's counters, the faults since boot."""
+        out = {"fault": self.fault, "fault_code": self.fault_code}
+        if self.adc is not None:
+            out.update(self.acq.status())
+            if self.health is not None:
+                out["adc_faults"] = self.health.faults
+        return out

@@ -15,8 +15,8 @@ if options.runtime == "micropython":
     include("$(PORT_DIR)/boards/manifest.py")   # the port's own frozen modules stay
 
 # Every runtime: the application, the ADS1292 driver and the HAL contract.
-for name in ("acceptance", "acquisition", "ads1292", "app", "bootguard", "button", "commands", "config", "gates",
-             "hal", "health", "led", "protocol", "screen", "session", "store", "survey"):
+for name in ("acceptance", "acquisition", "ads1292", "app", "bootguard", "button", "calibration_flow", "commands",
+             "config", "gates", "hal", "health", "led", "protocol", "screen", "session", "store", "survey"):
     module(name + ".py", opt=3)
 
 # The runtime's HAL.

@@ -1,18 +1,53 @@
-"""Survey output: block averages at survey_hz, corrected to nT, and a rotating flash log.
+"""The survey output: what every decimated sample becomes (|h_c|, block averages at survey_hz,
+the data/raw events, a rotating flash log).
+
+    out = Output(board, proto)       # app.py wires it
+    out.configure(cfg, sample_hz)    # the spike screen, the survey averager, the log (config.py)
+    out.use(cal)                     # the calibration in force (None: uncalibrated)
+    out.sample(rx, ry, rz, rt)       # acq.poll's on_sample: screen -> session -> |h_c| -> survey
+    out.gap()                        # acq.poll's on_gap
+    out.status()                     # its part of `status`
 
     sv = Survey(cfg, window, decim_rate_hz)
     rec = sv.sample(sx, sy, sz, st, f)   # None, or a finished block (a tuple)
+
+A sample's way (the DRDY ring's reader calls Output.sample directly): the screen
+(screen.py) drops spikes and clipped samples; a calibration in progress (`session`,
+set by calibration_flow.py) gets the good ones; |h_c| per sample, only when a block
+goes out (stream or log), is averaged over the block with the raw sums. A finished
+block gets the die temperature (one per block: it changes over seconds), is
+corrected, and goes out as a `data` or `raw` event and a log line.
 
 A block over 1/survey_hz (0.1 s at the default 10 Hz, the paper's moving
 average width, IV.C) averages |h_c| of every decimated sample -- rotation
 invariant -- and, separately, the raw vector (integer sums). Averaging the
 vectors and taking |.| afterwards would shrink |B| by ~B (w T)^2/24 while the
 operator turns: 769 nT at 1 rev/s over 0.1 s (docs/simulator.md, smearing).
+
+Temperature compensation (docs/temperature.md): the calibration in force, with its
+temperature coefficients applied at the die temperature, is recomputed when the
+die moved by _TEMP_STEP_C (about 40 float operations). The coefficients hold a
+little beyond the temperatures they were measured at: a warning only _RANGE_MARGIN_C
+outside their range; applied linearly up to _EXTRAPOLATE_C outside it and held
+there beyond (a die reading far off, a fault or a hot spot, must not extrapolate
+the drift without end). Without coefficients, a warning when the die is temp_warn_c
+from the calibration's temperature.
 """
+
 
 import os
 
+from protocol import json_number
+from screen import Screen
 from store import file_path
+
+# re-apply the temperature coefficients when the die moved this much: at 20 ppm/C and
+# 1 nT/C a step of 0.05 nT at 48,000 nT, below the noise
+_TEMP_STEP_C = 0.05
+# the coefficients hold a little beyond the temperatures they were measured at (each a
+# calibration's mean die reading): warn only this far outside their range
+_RANGE_MARGIN_C = 1.0
+_EXTRAPOLATE_C = 10.0     # and are applied at most this far outside it (held there beyond)
 
 
 class Survey:
@@ -133,3 +168,160 @@ class RotatingLog:
             except OSError:
                 pass
             self.f = None
+
+
+class Output:
+    def __init__(self, board, proto):
+        self.board = board
+        self.proto = proto
+        self.adc = None            # the ADS1292Pair: the die temperature's conversion (app.py)
+        self.session = None        # the calibration in progress, fed every good sample
+        self.cfg = None
+        self.stream = "off"        # "off", "raw" or "corrected" (the stream command, config)
+        self.log = None
+        self.survey = None
+        self.screen = None
+        self.scale = None
+        self.cal = None            # the calibration in force
+        self.cal_now = None        # the calibration at the die temperature (tempco applied)
+        self.cal_w = None          # cal_now in sum units: saves three divisions per sample
+        self.temp_c = None
+        self.cal_temp_warn = False
+        self._comp_temp = None
+        self._want_f = False
+
+    def configure(self, cfg, sample_hz):
+        c = self.cfg = cfg
+        self.survey = Survey(c, c["window"], sample_hz)
+        self.scale = (c["scale_x"], c["scale_y"], c["scale_z"])
+        self.screen = Screen(self.scale, c["window"], c["spike_nt"])
+        if c["log"] and self.log is None:
+            self.log = RotatingLog(self.board.root, c["log_file_bytes"], c["log_files"], c["log_reserve_bytes"])
+        elif not c["log"] and self.log is not None:
+            self.log.close()
+            self.log = None
+        self._outputs()
+
+    def use(self, cal):
+        """Make cal (or None) the calibration the output applies (from the next sample)."""
+        self.cal = cal
+        if self.survey is not None:   # configured: else configure() applies it
+            self._outputs()
+
+    def set_stream(self, mode):
+        self.stream = mode
+        self._outputs()
+
+    def close(self):
+        if self.log is not None:
+            self.log.close()
+
+    def _outputs(self):
+        # |h_c| per sample is only needed when a block goes out (stream or log);
+        # the calibration in sum units saves three divisions per sample
+        want = self.stream != "off" or self.log is not None
+        if want and not self._want_f:
+            self.survey.restart()   # the open block's samples carry no |h_c|: start a new one
+        self._want_f = want
+        self._compensate(self.temp_c, True)
+
+    def _compensate(self, temp, force=False):
+        """The calibration at the die temperature (its tempco applied; docs/temperature.md),
+        recomputed when the temperature moved by _TEMP_STEP_C: about 40 float operations."""
+        cal = self.cal
+        if cal is not None and cal.tempco is not None and temp is not None:
+            # linear beyond the measured range for a few degrees, held there after: a die
+            # reading far off (a fault, a hot spot) must not extrapolate the drift without end
+            lo, hi = cal.tempco["range_c"]
+            temp = min(max(temp, lo - _EXTRAPOLATE_C), hi + _EXTRAPOLATE_C)
+            if not force and self._comp_temp is not None and abs(temp - self._comp_temp) < _TEMP_STEP_C:
+                return
+            self._comp_temp = temp
+            cal = cal.at_temperature(temp)
+        elif not force:
+            return
+        self.cal_now = cal
+        self.cal_w = cal.scaled_input(self.cfg["window"]) if cal is not None else None
+
+    # ****** per sample: the DRDY ring's reader calls these ******
+    def gap(self):
+        self.screen.reset()
+        if self.session is not None:
+            self.session.break_chain()
+
+    def sample(self, rx, ry, rz, rt):
+        sc = self.screen
+        clipped = sc.clipped
+        if not sc.push(rx, ry, rz, rt):
+            if sc.clipped != clipped and self.session is not None:
+                self.session.clipped += 1
+                self.session.clip_axis = sc.clip_axis
+            return
+        sx = sc.x
+        sy = sc.y
+        sz = sc.z
+        st = sc.t
+        s = self.session
+        if s is not None:
+            s.sample(sx, sy, sz)
+        # |h_c| per decimated sample, averaged over the output block (rotation invariant)
+        if self._want_f:
+            cal = self.cal_w
+            if cal is not None:
+                f = cal.magnitude(sx, sy, sz)
+            else:
+                k = self.scale
+                f = ((sx * k[0]) ** 2 + (sy * k[1]) ** 2 + (sz * k[2]) ** 2) ** 0.5 / self.cfg["window"]
+        else:
+            f = 0.0
+        blk = self.survey.sample(sx, sy, sz, st, f)
+        if blk is not None:
+            self._output(blk)
+
+    def _output(self, blk):
+        x, y, z, tc, f = blk
+        temp = self.adc.temperature_c(tc)
+        self.temp_c = temp
+        if self.session is not None:
+            self.session.add_temperature(temp)   # one per block: the die changes over seconds
+        self._compensate(temp)
+        cal = self.cal_now
+        tcal = None
+        warn = False
+        msg = None
+        if cal is not None and self.cal.tempco is not None:
+            # compensated: a warning only outside the range the coefficients were measured over
+            lo, hi = self.cal.tempco["range_c"]
+            warn = temp < lo - _RANGE_MARGIN_C or temp > hi + _RANGE_MARGIN_C
+            if warn:
+                msg = "temperature %.1f C outside the compensated %.1f..%.1f C" % (temp, lo, hi)
+        elif cal is not None:
+            tcal = cal.meta.get("temperature_c")
+            warn = tcal is not None and abs(temp - tcal) > self.cfg["temp_warn_c"]
+            if warn:
+                msg = "temperature %.1f C differs from calibration %.1f C" % (temp, tcal)
+        self.cal_temp_warn = warn
+        if not self._want_f:
+            return   # nothing goes out: no stream, no log
+        t = self.board.ticks_ms()
+        if cal is not None:
+            bx, by, bz = cal.correct(x, y, z)
+        else:
+            k = self.scale
+            bx, by, bz = x * k[0], y * k[1], z * k[2]
+        r = json_number
+        if self.stream == "corrected":
+            self.proto.event("data", {"t": t, "b": [r(bx), r(by), r(bz)], "f": r(f), "temp": r(temp, 2),
+                                      "c": [r(x, 2), r(y, 2), r(z, 2)], "cal": cal is not None, "warn": msg})
+        elif self.stream == "raw":
+            self.proto.event("raw", {"t": t, "c": [r(x, 2), r(y, 2), r(z, 2)], "temp": r(temp, 2)})
+        if self.log is not None and self.session is None:
+            self.log.write("%d,%.3f,%.3f,%.3f,%.3f,%.2f\n" % (t, bx, by, bz, f, temp))
+
+    def status(self):
+        """Its part of `status`: the stream, the die temperature, the screen's counts, the log."""
+        out = {"stream": self.stream, "temp": json_number(self.temp_c, 2), "temp_warn": self.cal_temp_warn,
+               "spikes": self.screen.spikes, "clipped": self.screen.clipped}
+        if self.log is not None:
+            out["log"] = {"lines": self.log.lines, "error": self.log.error}
+        return out

@@ -117,7 +117,7 @@ def test_wrong_local_field_is_refused_with_its_reason(tmp_path):
     res = _last_cal(w)
     assert res["state"] == "failed" and res["reason"] == "field_out_of_range"
     assert "configured 30000" in res["msg"]
-    assert dev.app.cal is None and not os.path.exists(tmp_path / "flash" / "cal.json")
+    assert dev.app.flow.cal is None and not os.path.exists(tmp_path / "flash" / "cal.json")
     dev.close()
 
 
@@ -144,7 +144,7 @@ def test_long_press_cancels_and_led_shows_states(tmp_path):
     dev.run_until(6.0)
     res = _last_cal(w)
     assert res["state"] == "cancelled"
-    assert dev.app.session is None and dev.app.cal is None
+    assert dev.app.flow.session is None and dev.app.flow.cal is None
     dev.close()
 
 
@@ -179,14 +179,14 @@ def test_dipole_before_any_provisional_fit_fails_and_keeps_the_previous_calibrat
     w.press(0.2)
     dev.run_until(14.0)                               # the first calibration auto-finishes in ~11 s
     assert _last_cal(w)["state"] == "done"
-    before = dev.app.cal.to_dict()
+    before = dev.app.flow.cal.to_dict()
     w.press(0.2)                                      # second calibration, the car passes 3 s in
     dev.run_until(28.0)
     w.press(0.2)
     dev.run_until(29.0)
     res = _last_cal(w)
     assert res["state"] == "failed" and res["reason"] == "rms_too_high", res
-    assert dev.app.cal.to_dict() == before
+    assert dev.app.flow.cal.to_dict() == before
     dev.close()
 
 

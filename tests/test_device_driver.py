@@ -35,7 +35,7 @@ def boot(tmp_path, fault=(None, None), seconds=5.0):
 
 def test_boot_configures_both_chips_without_violations(tmp_path):
     w, dev = boot(tmp_path)
-    adc = dev.app.adc
+    adc = dev.app.supervisor.adc
     assert adc.ids == [0x53, 0x53]
     for chip in w.chips:
         assert chip.violations == []          # datasheet timing and fixed bits respected
@@ -44,7 +44,7 @@ def test_boot_configures_both_chips_without_violations(tmp_path):
     assert RATE == 1000 and r0[1] == dr == 0x03 and r1[1] == dr
     assert r0[2] == 0xA0                      # CONFIG2: internal reference buffer on, 2.42 V
     assert r1[5] == 0x14                      # CH2SET chip 1: gain 1, MUX=0100 temperature
-    assert dev.app.fault is None
+    assert dev.app.supervisor.fault is None
     dev.close()
 
 
@@ -53,7 +53,7 @@ def test_frames_decode_to_the_field(tmp_path):
     w, dev = boot(tmp_path)
     got = []
     app = dev.app
-    orig = app._on_sample
+    orig = app.output.sample
 
     def spy(sx, sy, sz, st):
         got.append((sx, sy, sz, st))
@@ -73,7 +73,7 @@ def test_frames_decode_to_the_field(tmp_path):
     sigma = np.hypot(adc_nt, w.scenario.noise) / np.sqrt(100 * win)
     assert np.all(np.abs(mean_nt - truth) < 5 * sigma + 0.5 * lsb), (mean_nt - truth, sigma)
     # the die sensor: 490 uV/C [DS Eq.3] against the same ADC noise, averaged over a block
-    assert abs(app.temp_c - w.scenario.temp_c) < 5 * (adc_nt / lsb[0] * VREF_LOW / FULL_SCALE_CODE) / 490e-6
+    assert abs(app.output.temp_c - w.scenario.temp_c) < 5 * (adc_nt / lsb[0] * VREF_LOW / FULL_SCALE_CODE) / 490e-6
     st = app.acq.state
     assert st[acquisition.OVERFLOW] == 0 and st[acquisition.BADSYNC] == 0 and app.acq.gaps == 0
     dev.close()
@@ -115,8 +115,8 @@ def test_corrupt_status_words_are_dropped(tmp_path):
 def test_absent_chip_is_a_clear_fault(tmp_path, fault, read):
     w, dev = boot(tmp_path, fault=(None, fault))
     app = dev.app
-    assert app.fault.startswith("ADS1292 #1: ID register read 0x%02X, expected 0x53" % read)
-    assert "check CS1" in app.fault
+    assert app.supervisor.fault.startswith("ADS1292 #1: ID register read 0x%02X, expected 0x53" % read)
+    assert "check CS1" in app.supervisor.fault
     w.send(b"status\nstart-cal\n")
     dev.run_until(0.5)
     lines = w.lines()
@@ -189,7 +189,7 @@ def test_corrupt_calibration_boots_uncalibrated(tmp_path, content):
     (flash / "cal.json").write_bytes(content)
     w, dev = boot(tmp_path)
     app = dev.app
-    assert app.cal is None and app.cal_problem and app.fault is None
+    assert app.flow.cal is None and app.flow.cal_problem and app.supervisor.fault is None
     w.send(b"status\n")
     dev.run_until(0.6)
     assert '"calibrated": false' in w.lines()[-1] and '"cal_problem": "cal.json:' in w.lines()[-1]

@@ -44,7 +44,7 @@ def test_turned_too_fast_for_its_bandwidth_says_so_and_is_refused(tmp_path):
         end = [e for e in events(w, "cal") if e.get("state") != "collecting"][-1]
         assert end["state"] == "failed" and end["reason"] == "too_fast", end
         assert "turn slower" in end["msg"] and "8 deg/s" in end["msg"]
-        assert dev.app.cal is None
+        assert dev.app.flow.cal is None
     finally:
         dev.close()
 
@@ -58,7 +58,7 @@ def test_turned_slowly_enough_it_calibrates_right(tmp_path):
         assert sum(e["slow_down"] for e in prog) < 0.2 * len(prog)
         end = [e for e in events(w, "cal") if e.get("state") != "collecting"][-1]
         assert end["state"] == "done" and end["kind"] == "full", end
-        cal = dev.app.cal
+        cal = dev.app.flow.cal
     finally:
         dev.close()
     # full-sphere error against the simulator's exact codes at 25 C (the field fitted: the
@@ -87,6 +87,6 @@ def test_a_lag_the_gate_was_not_told_about_is_seen_in_the_residuals(tmp_path):
         end = [e for e in events(w, "cal") if e.get("state") != "collecting"][-1]
         assert end["state"] == codes.FAILED and end["reason"] == codes.PREDICTED_ERROR_TOO_HIGH, end
         assert "follow each other" in end["msg"] and "sensor_bandwidth_hz" in end["msg"]
-        assert dev.app.cal is None
+        assert dev.app.flow.cal is None
     finally:
         dev.close()

@@ -39,7 +39,7 @@ class Spy:
         self.pushed = 0
         self.spanning = 0
         self.miscounted = 0
-        dev.board.attach_drdy(self.isr, dev.app.adc.rate, self.gap)
+        dev.board.attach_drdy(self.isr, dev.app.supervisor.adc.rate, self.gap)
 
     def gap(self, frames):
         blocks = self.st[acquisition.BLOCKS]

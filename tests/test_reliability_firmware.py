@@ -84,7 +84,7 @@ def test_an_exception_in_the_main_loop_is_counted_and_survived(tmp_path):
     second) is counted, reported as an event, and the loop keeps serving and measuring."""
     w, dev = boot(tmp_path, kind="cpython")
     app = dev.app
-    real = app.survey.sample
+    real = app.output.survey.sample
     calls = [0]
 
     def buggy(*a):
@@ -93,7 +93,7 @@ def test_an_exception_in_the_main_loop_is_counted_and_survived(tmp_path):
             raise TypeError("a stand-in firmware bug")
         return real(*a)
 
-    app.survey.sample = buggy
+    app.output.survey.sample = buggy
     try:
         ask(w, dev, "stream corrected")
         blocks = data_after(w, dev, 3.0)
@@ -118,7 +118,7 @@ def test_a_main_loop_failing_every_pass_with_a_calibration_drops_to_safe_mode(tm
         def broken(*a):
             raise TypeError("broken by the calibration")
 
-        dev.app.cal_w.magnitude = broken     # the stand-in: the corrected |B| raises on every sample
+        dev.app.output.cal_w.magnitude = broken     # the stand-in: the corrected |B| raises on every sample
         dev.run_until(w.time + 2.0)
         s = ask(w, dev, "status")
         assert s["safe_mode"] and "50 times in a row" in s["safe_mode"] and s["calibrated"] is False

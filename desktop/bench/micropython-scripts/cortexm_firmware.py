@@ -12,7 +12,7 @@ import json
 import time
 from array import array
 
-from loopboard import LoopBoard
+from loopboard import LoopBoard, finish_cal, parts, start_cal
 
 
 def count(t0, t1):
@@ -83,6 +83,7 @@ def units(app, board, out, replay_n):
     """The DRDY handler by kind of frame, the gates and add() (replays), a final and a
     provisional solve, and one survey output block; returns the board's harness cost."""
     calibrate = session_module()
+    flow, output = parts(app)
     cfg = app.cfg
     harness, skip, read, push = board.handler_costs(app.acq, per_frame, 2000)
     out["harness"] = harness
@@ -95,10 +96,10 @@ def units(app, board, out, replay_n):
     # without a provisional fit, and the replay has none)
     samples = record(app, board, replay_n)
     period_ms = 1000.0 * cfg["decim"] / cfg["rate"]
-    full = calibrate.Session(cfg, app.scale, cfg["window"], period_ms)
+    full = calibrate.Session(cfg, output.scale, cfg["window"], period_ms)
     gc.collect()
     t_full = replay(full, samples, replay_n)
-    gates = calibrate.Session(cfg, app.scale, cfg["window"], period_ms)
+    gates = calibrate.Session(cfg, output.scale, cfg["window"], period_ms)
 
     def no_add(x, y, z):
         pass
@@ -125,20 +126,20 @@ def units(app, board, out, replay_n):
     full = None
     # one survey output block, streaming corrected with the replay's calibration: correct,
     # format the data event, hand it to the serial line
-    app.cal = cal.scaled_input(1.0 / cfg["window"])
+    output.cal = cal.scaled_input(1.0 / cfg["window"])
     cal = None
     blk = None
     while blk is None:
-        blk = app.survey.sample(one[0], one[1], one[2], 0, 48000.0)
-    stream = app.stream
-    app.stream = "corrected"
-    app._outputs()
+        blk = output.survey.sample(one[0], one[1], one[2], 0, 48000.0)
+    stream = output.stream
+    output.stream = "corrected"
+    output._outputs()
     t0 = time.ticks_us()
     for _ in range(20):
-        app._output(blk)
+        output._output(blk)
     out["output_per_block"] = count(t0, time.ticks_us()) // 20
-    app.stream = stream
-    app.cal = None
+    output.stream = stream
+    output.cal = None
     app._setup_pipeline()
     return harness
 
@@ -147,10 +148,11 @@ def loops(app, board, out, seconds, harness):
     """The whole firmware per second of data: the real main loop calibrating (its steady
     state: one provisional solve per solve_every_s), then in survey streaming corrected."""
     calibrate = session_module()
+    flow, output = parts(app)
     cfg = app.cfg
     rate = cfg["rate"]
-    app.start_session()
-    s = app.session
+    start_cal(app)
+    s = flow.session
     frames = seconds * rate
     gc.collect()
     n = loop(app, board, frames, harness)
@@ -171,17 +173,17 @@ def loops(app, board, out, seconds, harness):
     out["cal_accepted"] = s.fit.n
     code_cal, reason, msg = s.finish()
     out["cal_state"] = s.state
-    app.session = None
+    flow.session = output.session = None
     if code_cal is None:
         out["cal_reason"] = reason
         return
     # survey, streaming corrected blocks (the flash is read-only here: no log)
-    app.cal = code_cal
-    app.stream = "corrected"
+    flow.cal = output.cal = code_cal
+    output.stream = "corrected"
     app._setup_pipeline()
     gc.collect()
     out["survey_per_s"] = loop(app, board, frames, harness) // seconds
-    out["survey_blocks"] = app.survey.blocks
+    out["survey_blocks"] = output.survey.blocks
 
 
 def main(frames_path, root, rate, seconds, replay_n=1200, unit_counts=True):

@@ -21,7 +21,7 @@ import io
 import sys
 import time
 
-from loopboard import LoopBoard
+from loopboard import LoopBoard, finish_cal, parts, start_cal
 
 BLOCKS = 5
 
@@ -137,8 +137,9 @@ def main():
 
     # calibration: the real loop over `seconds` of data (gates, coverage, fit.add,
     # provisional solves every solve_every_s, progress events, LED, button)
-    app.start_session()
-    s = app.session
+    flow, output = parts(app)
+    start_cal(app)
+    s = flow.session
     cpu = []
     record("cal", run_loop(app, board, frames_run, cpu), cpu)
     g = getattr(s, "gates", s)   # the gates' counts (the session's before they were split)
@@ -155,20 +156,20 @@ def main():
     out["ms_solve"] = (time.clock() - c0) * 1000 / BLOCKS      # process CPU time per solve
     out["ms_solve_wall"] = median(solves)
     out["solve_iterations"] = cal.diagnostics.get("iterations")
-    r = app.finish_session()
+    r = finish_cal(app)
     out["cal_state"] = r["state"]
 
     # survey: stream off (the handheld alone), then stream corrected at 10 Hz + log on
     cpu = []
     record("survey", run_loop(app, board, frames_run, cpu), cpu)
     app.cfg["log"] = True
-    app.stream = "corrected"
+    output.stream = "corrected"
     app._setup_pipeline()
     cpu = []
     record("stream", run_loop(app, board, frames_run, cpu), cpu)
     out["frame_us_model"] = fd
     out["heap_survey"] = heap()
-    app.stream = "off"
+    output.stream = "off"
     app._setup_pipeline()
 
     if hour:
@@ -184,8 +185,8 @@ def main():
         out["heap_hour_start"] = h0
         out["heap_hour_marks"] = marks
         out["heap_growth_hour"] = marks[-1] - h0
-        out["log_lines"] = app.log.lines if app.log else 0
-        out["log_error"] = app.log.error if app.log else None
+        out["log_lines"] = output.log.lines if output.log else 0
+        out["log_error"] = output.log.error if output.log else None
     out["overflow"] = acq.state[OVERFLOW]
     out["heap_total"] = gc.mem_alloc() + gc.mem_free() - BASE[0]
     import json

@@ -15,7 +15,7 @@
 import gc
 import sys
 
-from loopboard import LoopBoard
+from loopboard import LoopBoard, finish_cal, parts, start_cal
 
 KEYS = ("harness", "boot", "cal", "cal_peak", "survey", "survey_peak", "state", "saved", "log_lines")
 M = [0] * len(KEYS)
@@ -52,25 +52,26 @@ def main():
         app = appmod.App(board)
         M[1] = heap()
         phase = "calibrate"
-        app.start_session()
+        start_cal(app)
         PEAK[0] = 0
         board.run(app, seconds * rate, each)
         M[2] = heap()
         M[3] = PEAK[0]
         phase = "finish"
-        r = app.finish_session()
+        r = finish_cal(app)
         M[6] = r["state"]   # a name the firmware's bytecode holds: no allocation
         M[7] = r.get("saved") is True
         r = None
         phase = "survey"
         app.cfg["log"] = True
-        app.stream = "corrected"
+        output = parts(app)[1]
+        output.stream = "corrected"
         app._setup_pipeline()
         PEAK[0] = 0
         board.run(app, seconds * rate, each)
         M[4] = heap()
         M[5] = PEAK[0]
-        M[8] = app.log.lines if app.log.error is None else -1
+        M[8] = output.log.lines if output.log.error is None else -1
         phase = None
     except MemoryError:
         app = board = r = None

@@ -1,5 +1,6 @@
-# MicroPython module for the bench scripts (firmware_cost.py, firmware_heap.py; not a module of the
-# desktop package): a loop-back board that runs the firmware's App on real frames without the simulator.
+# MicroPython module for the bench scripts (firmware_cost.py, firmware_heap.py, cortexm_firmware.py; not
+# a module of the desktop package): a loop-back board that runs the firmware's App on real frames without
+# the simulator, and the App's parts those scripts drive (parts, start_cal, finish_cal).
 # Register access is answered from a 12-byte register file per chip; each DRDY edge reads the next
 # frame (2 x 9 bytes: status, CH1, CH2 as the two ADS1292 send them) from `src`, any object with
 # seek(pos) and readinto(buf): io.BytesIO over a table in RAM, or a file opened "rb" (the table then
@@ -149,3 +150,21 @@ class LoopBoard:
 
 def _nop(sx, sy, sz, st):
     pass
+
+
+# The App's owners the scripts drive. A revision counted with --before (desktop/bench/cortexm.py)
+# may have the App before its state was split among them: there the App is both, and the
+# session starts and finishes by App.start_session / App.finish_session.
+def parts(app):
+    """(calibration flow, survey output) of the firmware's App."""
+    return getattr(app, "flow", app), getattr(app, "output", app)
+
+
+def start_cal(app):
+    flow = getattr(app, "flow", None)
+    return app.start_session() if flow is None else flow.start()
+
+
+def finish_cal(app):
+    flow = getattr(app, "flow", None)
+    return app.finish_session() if flow is None else flow.finish()

@@ -1,0 +1,269 @@
+"""The calibration flow the button and the serial commands share: start, finish, cancel, install, clear.
+
+    flow = CalibrationFlow(board, proto, led, output, guard, supervisor, firmware)   # app.py wires it
+    flow.load()             # the stored calibration, at boot (not applied in safe mode)
+    flow.configure(cfg)
+    flow.press(ev)          # the button: idle, a short press starts (auto), a long one a quick one;
+                            # calibrating, a short press finishes, a long one cancels
+    flow.tick()             # every main-loop pass while calibrating: solves, progress, the LED
+    flow.start(kind) / flow.finish() / flow.cancel()    # start-cal / finish-cal / cancel-cal
+    flow.install(cal) / flow.clear()                    # set-cal / clear-cal
+    flow.status()           # its part of `status`
+
+It owns the calibration in force (`cal`, where it came from, why a stored one was
+not loaded) and the session in progress (session.py), and shows them on the LED:
+COLLECTING (keep rotating), SLOW_DOWN (turning faster than the gate), ENOUGH
+(press to finish), DONE / DONE_QUICK / FAILED once, then the steady pattern
+(FAULT, SAFE, SURVEY or UNCALIBRATED; led.py). A new calibration gets temperature
+coefficients fitted against the one it replaces when their die temperatures are
+tempco_min_span_c apart, else the previous ones carried over (docs/temperature.md).
+A session ends early with reason "fault" (health.py) or "internal_error" (bootguard.py).
+"""
+
+import gc
+
+import led as ledp
+import store
+from button import LONG, SHORT
+from protocol import ProtocolError, json_number
+from session import AUTO, FULL, KINDS, QUICK, Session
+from shared.calibration import Calibration
+
+SOLVE = "solve"   # board.busy key: a solve, charged as simulated time by the simulated board
+
+
+class CalibrationFlow:
+    def __init__(self, board, proto, led, output, guard, supervisor, firmware):
+        self.board = board
+        self.proto = proto
+        self.led = led
+        self.output = output
+        self.guard = guard
+        self.supervisor = supervisor
+        self.firmware = firmware
+        self.cfg = None
+        self.scale = None
+        self.session = None
+        self.last_coverage = None
+        self.last_result = None
+        self.last_progress = board.ticks_ms()
+        self.cal = None
+        self.cal_source = None
+        self.cal_problem = None
+        self._diff = board.ticks_diff
+
+    def load(self):
+        body, src, problem = store.load(self.board.root, "cal", Calibration.from_dict)
+        self.cal = Calibration.from_dict(body) if body is not None else None
+        self.cal_source = src
+        self.cal_problem = problem
+        if self.guard.safe_mode and self.cal is not None:
+            # the record stays on the flash: clear-cal, set-cal or a healthy reboot decide
+            self.cal = None
+            self.cal_source = "stored, not applied: safe mode"
+        self.output.use(self.cal)
+
+    def configure(self, cfg):
+        self.cfg = cfg
+        self.scale = (cfg["scale_x"], cfg["scale_y"], cfg["scale_z"])
+
+    # ****** the session ******
+    def press(self, ev):
+        if self.session is None:
+            # idle: a short press starts a calibration (auto: quick or full by the coverage
+            # reached), a long one a quick re-calibration (docs/firmware.md, the button)
+            try:
+                self.start(AUTO if ev == SHORT else QUICK)
+            except ProtocolError as e:
+                self.proto.event("cal", {"state": "failed", "reason": e.code, "msg": str(e)})
+                self.led.flash(ledp.FAILED)
+        elif ev == SHORT:
+            self.finish()
+        elif ev == LONG:
+            self.cancel()
+
+    def tick(self):
+        s = self.session
+        b = self.board
+        now = b.ticks_ms()
+        solved = s.tick(now, self._diff)
+        if solved:
+            b.busy(SOLVE)
+        if b.ticks_diff(now, self.last_progress) >= 1000:
+            self.last_progress = now
+            self.proto.event("cal", s.progress(True))
+            if not s.ready():
+                self.led.set(ledp.SLOW_DOWN if s.slow_down else ledp.COLLECTING)
+        # coverage is a pass over all cells: check it only after a provisional solve
+        if solved and s.ready():
+            self.led.set(ledp.ENOUGH)
+            if self.cfg["auto_finish"]:
+                self.finish()
+        elif s.timed_out(now, self._diff):
+            self.finish()
+
+    def start(self, kind=AUTO):
+        if self.session is not None:
+            raise ProtocolError("busy", "calibration already in progress")
+        sup = self.supervisor
+        if sup.fault:
+            raise ProtocolError("fault", "ADC fault (%s): %s" % (sup.fault_code, sup.fault))
+        if kind not in KINDS:
+            raise ProtocolError("bad_argument", "kind must be auto, full or quick")
+        if kind == QUICK and self.cal is None:
+            raise ProtocolError("no_calibration", "a quick re-calibration needs a calibration in force: run a full one")
+        c = self.cfg
+        period_ms = 1000.0 * c["decim"] / c["rate"]
+        # the previous calibration as it stands now (its temperature coefficients applied)
+        prior = None if kind == FULL else self.output.cal_now
+        gc.collect()   # the session's buffers want a few contiguous KB of a small heap
+        self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind)
+        self.output.session = self.session
+        self.last_progress = self.board.ticks_ms()
+        self.led.set(ledp.COLLECTING)
+        self.proto.event("cal", self.session.progress())
+
+    def finish(self):
+        s = self._end()
+        gc.collect()
+        cal, reason, msg = s.finish()
+        b = self.board
+        b.busy(SOLVE)
+        result = {"state": s.state, "n": s.fit.n, "coverage": json_number(s.coverage())}
+        if cal is None:
+            result["reason"] = reason
+            result["msg"] = msg
+            self.led.flash(ledp.FAILED)
+        else:
+            cal.meta["firmware"] = self.firmware
+            cal.meta["uptime_ms"] = self.guard.uptime_ms()
+            t = b.time()
+            if t is not None:
+                cal.meta["time"] = t
+            cal.meta["rate"] = self.cfg["rate"]
+            cal.meta["scale"] = list(self.scale)
+            cal, result["tempco"] = self._with_tempco(cal)
+            saved, err = self.install(cal)
+            result["saved"] = saved
+            if err:
+                result["save_error"] = err
+            d = cal.diagnostics
+            for k in ("rms", "predicted_error", "observability"):
+                result[k] = json_number(d.get(k), 4)
+            result["field"] = json_number(cal.field, 2)
+            result["kind"] = cal.meta.get("kind")
+            self.led.flash(ledp.DONE if result["kind"] == FULL else ledp.DONE_QUICK)
+        self.last_result = result
+        self.proto.event("cal", result)
+        self.steady_led()
+        return result
+
+    def _with_tempco(self, new):
+        """new with temperature coefficients: fitted against the calibration it replaces when
+        their temperatures are tempco_min_span_c apart, else the previous ones carried over.
+        Returns (calibration, "fitted" / "kept" / None)."""
+        prev = self.cal
+        t_new = new.meta.get("temperature_c")
+        if prev is None or t_new is None:
+            return new, None
+        from shared import tempco   # here: its bytecode is heap on a board without frozen modules
+        t_prev = prev.meta.get("temperature_c")
+        if t_prev is not None and abs(t_new - t_prev) >= self.cfg["tempco_min_span_c"]:
+            try:
+                return tempco.attach(new, tempco.fit_tempco([prev, new])), "fitted"
+            except ValueError as e:   # not the same sensor or unit: no coefficients, said so
+                self.proto.event("error", {"msg": "temperature coefficients not fitted: %s" % e})
+                return new, None
+        if prev.tempco is not None:
+            return tempco.attach(new, prev.tempco), "kept"
+        return new, None
+
+    def cancel(self):
+        s = self._end()
+        s.cancel()
+        self.last_result = {"state": s.state, "reason": s.reason, "msg": s.message}
+        self.proto.event("cal", self.last_result)
+        self.led.flash(ledp.FAILED)
+        self.steady_led()
+
+    def abort(self, reason, msg, flash=True):
+        """End a session in progress, if any, for a fault or a main-loop error: said as a cal
+        event; flash: the FAILED pattern (a fault shows its own)."""
+        if self.session is None:
+            return
+        s = self._end()
+        s.cancel()
+        s.reason = reason
+        s.message = msg
+        self.last_result = {"state": s.state, "reason": reason, "msg": msg}
+        self.proto.event("cal", self.last_result)
+        if flash:
+            self.led.flash(ledp.FAILED)
+
+    def _end(self):
+        s = self.session
+        if s is None:
+            raise ProtocolError("not_calibrating", "no calibration in progress")
+        self.session = None
+        self.output.session = None
+        self.last_coverage = s.cov
+        return s
+
+    def steady_led(self):
+        if self.supervisor.fault:
+            self.led.set(ledp.FAULT)
+        elif self.guard.safe_mode:
+            self.led.set(ledp.SAFE)
+        else:
+            self.led.set(ledp.SURVEY if self.cal is not None else ledp.UNCALIBRATED)
+
+    # ****** the calibration in force ******
+    def install(self, cal):
+        """Make cal the active calibration and store it; (saved, error)."""
+        self.guard.leave()
+        self.cal = cal
+        self.output.use(cal)
+        self.cal_source = "new"
+        self.cal_problem = None
+        self.steady_led()
+        try:
+            store.save(self.board.root, "cal", cal.to_dict())
+            return True, None
+        except MemoryError:   # the record is active; the old file stays until a save succeeds
+            return False, "no memory to write cal.json"
+        except (OSError, ValueError) as e:   # ValueError: a store older than its OSError contract
+            return False, str(e) or e.__class__.__name__
+
+    def clear(self):
+        """Forget the calibration, on the flash first: OSError (read-only, ...) leaves it in force,
+        so what the next boot loads is what the device says now."""
+        store.remove(self.board.root, "cal")
+        self.guard.leave()
+        self.cal = None
+        self.output.use(None)
+        self.cal_source = None
+        self.steady_led()
+
+    def drop_calibration(self):
+        """Safe mode entered while running (bootguard.py): the stored record stays, unapplied."""
+        self.cal = None
+        self.cal_source = "stored, not applied: safe mode"
+        self.output.use(None)
+        self.steady_led()
+
+    def status(self):
+        """Its part of `status`: the calibration in force, the last result, a session's progress."""
+        cal = self.cal
+        out = {
+            "calibrated": cal is not None,
+            "cal_source": self.cal_source,
+            "cal_problem": self.cal_problem,
+            # which kind made the calibration in force, and the range its temperature
+            # coefficients were measured over (None: uncompensated)
+            "cal_kind": cal.meta.get("kind", "full") if cal is not None else None,
+            "tempco_range": cal.tempco["range_c"] if cal is not None and cal.tempco else None,
+            "last_cal": self.last_result,
+        }
+        if self.session is not None:
+            out["cal"] = self.session.progress()
+        return out
