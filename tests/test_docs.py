@@ -352,6 +352,30 @@ def check_links(doc, text):
     return problems
 
 
+def _headings(path):
+    with open(path, encoding="utf-8") as fh:
+        return [re.sub(r"[`*]", "", h).strip().lower() for h in re.findall(r"^#+ (.*)$", fh.read(), re.M)]
+
+
+def check_section_names(doc, text):
+    """A section named in quotes (`docs/x.md, "Sensor lag"`, `"Missed conversions" below`) exists."""
+    problems = []
+    cited = [(m.group(1), m.group(2)) for m in
+             re.finditer(r"(\b[\w/-]+\.md|README)\)?[,:]? \"([A-Z][^\"]{2,60})\"", text)]
+    cited += [(doc, m.group(1) or m.group(2)) for m in
+              re.finditer(r"\"([A-Z][^\"]{2,60})\" below|below, \"([A-Z][^\"]{2,60})\"", text)]
+    for target, section in cited:
+        if target == "README":
+            target = "README.md"
+        path = os.path.join(ROOT, target) if "/" in target or target == "README.md" or target == doc \
+            else os.path.join(ROOT, os.path.dirname(doc), target)
+        if not os.path.exists(path):
+            continue        # a missing file is check_paths' or check_links' to report
+        if not any(h.startswith(section.lower()) for h in _headings(path)):
+            problems.append('%s: %s has no section "%s"' % (doc, target, section))
+    return problems
+
+
 def _options_in(text):
     """--long and -s options written in a command line ([--a|--b], --x=V, -o)."""
     out = []
@@ -667,6 +691,7 @@ def all_problems(docs, index):
         text = "\n".join(line for _n, line in prose) + "\n" + "\n".join(line for _n, line, _l in code)
         problems += check_paths(doc, text)
         problems += check_links(doc, "\n".join(line for _n, line in prose))
+        problems += check_section_names(doc, "\n".join(line for _n, line in prose))
         for n, span in spans:
             problems += ["%s (line %d)" % (p, n) for p in check_span(doc, span, index, subs, table, schema)]
         for n, line, lang in code:
@@ -735,7 +760,7 @@ def test_readme_command_table_lists_every_subcommand():
 
 def _planted(index, text, lang="", doc="planted.md"):
     subs, table, schema = fluxcal_parsers(), command_table(), config_schema()
-    problems = check_paths(doc, text) + check_links(doc, text)
+    problems = check_paths(doc, text) + check_links(doc, text) + check_section_names(doc, text)
     for span in re.findall(r"`([^`]+)`", text):
         problems += check_span(doc, span, index, subs, table, schema)
     if lang == "python":
@@ -749,6 +774,8 @@ def _planted(index, text, lang="", doc="planted.md"):
     ("`app.py`", "`apps.py`"),
     ("[x](docs/protocol.md#status)", "[x](docs/protocol.md#statuses)"),
     ("[x](docs/protocol.md)", "[x](docs/experiments.md)"),
+    ('docs/simulator.md, "Sensor lag"', 'docs/simulator.md, "Sensor drag"'),
+    ('(README, "Layout")', '(README, "The command line")'),
     ("`docs/firmware.md`", "`../shared/reference/ads1292-and-runtimes.md`"),
     ("`fluxcal fit --prior OLD.json`", "`fluxcal fit --priors OLD.json`"),
     ("`fluxcal calibrate --quick`", "`fluxcal calibrat --quick`"),
