@@ -65,15 +65,18 @@ def nT_per_code(config):
     return [float(config["scale_" + a]) for a in "xyz"]
 
 
-def stream_events(dev, name, seconds=None, silence=3.0):
+def stream_events(dev, name, seconds=None, silence=None):
     """Yield the device's `name` events ("data", "raw") for `seconds` (None: until interrupted).
 
-    A stream that stops for `silence` seconds is a device that died or was
-    unplugged: LinkError, one line.
+    A stream that stops for `silence` seconds (default 3; at least 1.5 --timeout, so a board
+    given a longer one, slower than real time like the emulated Pico, is waited for as much
+    longer) is a device that died or was unplugged: LinkError, one line.
     """
     import time
 
     from desktop.link import LinkError
+
+    silence = max(3.0 if silence is None else silence, 1.5 * dev.timeout)
 
     end = None if seconds is None else time.monotonic() + seconds
     last = time.monotonic()

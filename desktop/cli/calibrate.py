@@ -82,6 +82,9 @@ def _follow(dev, cfg, auto, view, keys):
     from desktop.link import DeviceError, LinkError
 
     last = time.monotonic()
+    # a board slower than real time (the emulated Pico on a busy machine) is given --timeout:
+    # its progress events come as much further apart
+    silence = max(SILENCE_S, 2.5 * dev.timeout)
     while True:
         ev = dev.next_event(0.1)
         if ev is not None and ev.get("ev") == "cal":
@@ -91,9 +94,9 @@ def _follow(dev, cfg, auto, view, keys):
             view.update(ev, dev.ask("get-coverage") if view.wants_map else None)
             if auto and ev.get("ready") and not cfg.get("auto_finish", True):
                 keys.pending = "finish"
-        elif time.monotonic() - last > SILENCE_S:
+        elif time.monotonic() - last > silence:
             raise LinkError("no calibration progress from %s for %.0f s: it stopped, reset or was unplugged"
-                            % (dev.port, SILENCE_S))
+                            % (dev.port, silence))
         key = keys.read()
         try:
             if key == "finish":

@@ -8,9 +8,10 @@ STATUS_S = 10.0
 
 def add_arguments(p):
     from desktop.devicesim.virtual_handheld import RUNTIMES
-    p.add_argument("--runtime", choices=RUNTIMES + ("cpython",), default="micropython",
-                   help="the interpreter the board runs (default micropython; cpython: the firmware in"
-                        " this process, no REPL)")
+    p.add_argument("--runtime", choices=RUNTIMES + ("pico", "cpython"), default="micropython",
+                   help="the interpreter the board runs (default micropython; pico: the rp2 port's own"
+                        " firmware on an emulated Raspberry Pi Pico; cpython: the firmware in this process,"
+                        " no REPL)")
     p.add_argument("--sensor", choices=("mag649", "mag648"), default="mag649")
     p.add_argument("--seed", type=int, default=0, help="the sensor's errors")
     p.add_argument("--flash", help="the board's flash folder (default: a new temporary one)")
@@ -69,6 +70,12 @@ def run(args):
     if args.runtime == "cpython":
         hh = InProcessHandheld(os.path.dirname(flash), sensor=args.sensor, seed=args.seed, speed=args.speed,
                                on_behind=on_behind)
+    elif args.runtime == "pico":
+        from desktop.devicesim.pico_handheld import PicoHandheld
+        try:        # its clock is the emulated chip's: no --speed, it never runs ahead of real time
+            hh = PicoHandheld(flash, sensor=args.sensor, seed=args.seed)
+        except FileNotFoundError as exc:
+            raise CommandError(str(exc))
     else:
         try:
             hh = VirtualHandheld(flash, runtime=args.runtime, sensor=args.sensor, seed=args.seed, speed=args.speed,
@@ -90,6 +97,8 @@ def run(args):
         print("fluxcal emulate: virtual handheld (%s, %s) on %s" % (args.runtime, args.sensor, hh.port), flush=True)
         if args.runtime != "cpython" and not args.bare:
             _deploy_if_empty(hh, flash)
+            if args.runtime == "pico":    # its boot takes wall seconds: ready when the firmware answers
+                _await_firmware(hh)
         print("ready: %s" % ("an empty board, its REPL on the port" if args.bare else "the firmware runs"),
               flush=True)
         if sys.stdin.isatty():
@@ -148,8 +157,8 @@ def _deploy_if_empty(hh, flash):
     from desktop.firmware.deploy import DeployError, MicroPythonDeploy, deploy_drive, firmware_version
 
     entry = "code.py" if hh.runtime == "circuitpython" else "main.py"
-    if os.path.exists(os.path.join(flash, entry)):
-        return
+    if getattr(hh, "fresh", None) is False or os.path.exists(os.path.join(flash, entry)):
+        return      # (the Pico's flash is one file, FLASH/pico.flash: fresh until it exists)
     print("the flash holds no firmware: deploying it (fluxcal deploy)", flush=True)
     try:
         if hh.runtime == "circuitpython":
@@ -161,6 +170,14 @@ def _deploy_if_empty(hh, flash):
         raise CommandError(" ".join(str(exc).split())) from None
     check_version(hh.port, firmware_version(hh.runtime))
     print(done, flush=True)
+
+
+def _await_firmware(hh):
+    """The emulated Pico boots at its emulated speed (seconds of wall time while the firmware's
+    modules load): "ready" once its firmware answers, so that a client does not find it mute."""
+    from desktop.cli.deploy import check_version
+    from desktop.firmware.deploy import firmware_version
+    check_version(hh.port, firmware_version(hh.runtime), wait_s=300.0)
 
 
 class _Keys:

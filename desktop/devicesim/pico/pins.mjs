@@ -34,7 +34,11 @@ export class WorldBridge {
     this.pending = Buffer.alloc(0);
     this.frames = [Buffer.alloc(9), Buffer.alloc(9)];
     this.validUntil = [-1, -1];
-    this.stats = { requests: 0, local: 0, lockstep: 0, waitMs: 0 };
+    // latency: DRDY's fall to the first SCLK of chip 0's read (emulated ns); unread: conversions
+    // whose frame was not read before the next fell
+    this.stats = { requests: 0, local: 0, lockstep: 0, waitMs: 0, reads: 0, latencySumNs: 0,
+      latencyMaxNs: 0, unread: 0 };
+    this.fellAt = null;
     this.asked = 0;
     // a socket on the pipe, not fs.createReadStream: that one blocks a libuv thread in read(),
     // and process.exit() waits for it, so the runner could not end
@@ -87,7 +91,11 @@ export class WorldBridge {
   apply(r) {
     const flags = r.readUInt8(1);
     const drdy = this.mcu.gpio[DRDY];
-    if (flags & 2) drdy.setInputValue(true);     // a new conversion: a falling edge, as on the pin
+    if (flags & 2) {                             // a new conversion: a falling edge, as on the pin
+      drdy.setInputValue(true);
+      if (this.fellAt !== null) this.stats.unread++;
+      this.fellAt = this.clock.nanos;
+    }
     drdy.setInputValue(!(flags & 1));
     this.mcu.gpio[BUTTON].setInputValue(!(flags & 4));   // to ground when pressed
     this.worldAlarm.schedule(Math.max(0, r.readDoubleLE(8) - this.clock.nanos));
@@ -104,6 +112,7 @@ export class WorldBridge {
     this.waiting = [];
     this.pending = Buffer.alloc(0);
     this.validUntil = [-1, -1];
+    this.fellAt = null;
     this.txn = null;                      // the SPI transaction in progress: { mask, n, local }
     mcu.gpio[DRDY].setInputValue(true);
     mcu.gpio[BUTTON].setInputValue(true);
@@ -150,6 +159,13 @@ export class WorldBridge {
     this.mcu.gpio[DRDY].setInputValue(true);       // the first SCLK edge raises DRDY [DS 8.5.1.6]
     const txn = this.txn;
     const k = txn ? [0, 1].find((i) => txn.mask === 1 << i) : undefined;
+    if (k === 0 && this.fellAt !== null) {        // the firmware's answer to DRDY: its read of chip 0
+      const latency = this.clock.nanos - this.fellAt;
+      this.stats.reads++;
+      this.stats.latencySumNs += latency;
+      this.stats.latencyMaxNs = Math.max(this.stats.latencyMaxNs, latency);
+      this.fellAt = null;
+    }
     if (txn && txn.local && k !== undefined && byte === 0 && this.clock.nanos < this.validUntil[k]) {
       if (txn.n === 0) txn.t0 = this.clock.nanos;
       done(this.frames[k][txn.n++ % 9]);
