@@ -2,7 +2,7 @@
 
 Each runtime has its HAL, a `Board` class that subclasses this one:
 hal_micropython.py (machine.SPI, Pin.irq), hal_circuitpython.py (busio,
-digitalio, keypad; DRDY polled) and hal_sim.py (a link to the desktop's
+digitalio, keypad; DRDY polled) and sim/hal_sim.py (a link to the desktop's
 emulated ADS1292). Nothing above the HAL knows which runtime it runs on.
 A method a HAL forgets raises NotImplementedError naming it; the defaults
 below are what real hardware does.
@@ -86,7 +86,7 @@ class Board:
     def busy(self, what, n=1):
         """The main loop just did n units of work `what` ("solve", "sample_cal",
         "sample"). Nothing to do on hardware, where the time really passed; the
-        simulation charges it as chip time (hal_sim.py)."""
+        simulation charges it as chip time (sim/hal_sim.py)."""
 
     def quit_requested(self):
         """True when the main loop should return (the simulation's power-off)."""

@@ -25,8 +25,10 @@ if options.runtime == "micropython":
 elif options.runtime == "circuitpython":
     module("hal_circuitpython.py", opt=3)
 elif options.runtime == "sim":
+    # the simulated board's files sit in device/sim/ (a reader sees at once what a real board
+    # gets) and deploy flat like the rest
     for name in ("hal_sim", "sim_link", "sim_main", "sim_wire"):
-        module(name + ".py", opt=3)
+        module(name + ".py", base_path="sim", opt=3)
 
 # The calibration core, all of it (pure Python, the same files as on the desktop).
 package("shared", base_path="..", opt=3)

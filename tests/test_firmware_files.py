@@ -18,7 +18,7 @@ import sys
 
 import pytest
 
-from desktop.firmware.files import (DEVICE, PACKAGE_JSON, REPO, RUNTIMES, firmware_files, package_json,
+from desktop.firmware.files import (DEVICE, PACKAGE_JSON, REPO, RUNTIMES, SIM, firmware_files, package_json,
                                     package_json_text, read_manifest, root_files)
 from desktop.firmware.image import build_image
 
@@ -52,8 +52,11 @@ def _source(name):
         return path if os.path.exists(path) else None
     if name == "shared":
         return os.path.join(REPO, "shared", "__init__.py")
-    path = os.path.join(DEVICE, name + ".py")
-    return path if "." not in name and os.path.exists(path) else None
+    for folder in (DEVICE, SIM):   # flat on a board: device/sim/ holds the simulated board's files
+        path = os.path.join(folder, name + ".py")
+        if "." not in name and os.path.exists(path):
+            return path
+    return None
 
 
 def test_package_json_is_generated_from_the_manifest():
@@ -66,7 +69,7 @@ def test_package_json_is_generated_from_the_manifest():
 @pytest.mark.parametrize("runtime", RUNTIMES)
 def test_every_import_of_the_firmware_is_in_its_list(runtime):
     listed = {os.path.normpath(src) for src, _ in firmware_files(runtime)}
-    entries = [src for src, _ in root_files(runtime)] or [os.path.join(DEVICE, "sim_main.py")]
+    entries = [src for src, _ in root_files(runtime)] or [os.path.join(SIM, "sim_main.py")]
     todo, seen, unknown = list(entries), set(), set()
     while todo:
         path = todo.pop()
@@ -85,12 +88,20 @@ def test_every_import_of_the_firmware_is_in_its_list(runtime):
 
 
 def test_every_device_file_belongs_to_a_runtime():
-    owned = {"manifest.py"}
+    owned = {os.path.join(DEVICE, "manifest.py")}
     for runtime in RUNTIMES:
-        owned.update(os.path.basename(src) for src, _ in firmware_files(runtime) + root_files(runtime)
-                     if os.path.dirname(src) == DEVICE)
-    stray = sorted(set(f for f in os.listdir(DEVICE) if f.endswith(".py")) - owned)
+        owned.update(src for src, _ in firmware_files(runtime) + root_files(runtime))
+    files = {os.path.join(d, f) for d in (DEVICE, SIM) for f in os.listdir(d) if f.endswith(".py")}
+    stray = sorted(os.path.relpath(f, REPO) for f in files - owned)
     assert not stray, "device/ files in no runtime's list (device/manifest.py): %s" % stray
+
+
+def test_the_simulated_boards_files_are_only_the_sim_runtimes():
+    """device/sim/ holds what no real board gets: the sim runtime lists all of it, the others none."""
+    sim = {os.path.join(SIM, f) for f in os.listdir(SIM) if f.endswith(".py")}
+    for runtime in RUNTIMES:
+        listed = {src for src, _ in firmware_files(runtime) + root_files(runtime)}
+        assert (listed & sim) == (sim if runtime == "sim" else set()), runtime
 
 
 def test_one_version_everywhere():
@@ -118,7 +129,7 @@ def _abstract(path):
             and any(isinstance(s, ast.Raise) and "NotImplementedError" in ast.unparse(s) for s in f.body)}
 
 
-@pytest.mark.parametrize("hal", ["hal_micropython.py", "hal_circuitpython.py", "hal_sim.py"])
+@pytest.mark.parametrize("hal", ["hal_micropython.py", "hal_circuitpython.py", "sim/hal_sim.py"])
 def test_every_hal_keeps_the_contract(hal):
     contract, _ = _methods(os.path.join(DEVICE, "hal.py"))
     methods, bases = _methods(os.path.join(DEVICE, hal))

@@ -1,9 +1,9 @@
 """The host's end of the simulation link: answers the firmware's messages with the World.
 
 The firmware in the `micropython` executable writes sim_wire.py messages to
-its stdout (device/sim_link.py); `serve` reads them and calls the World,
+its stdout (device/sim/sim_link.py); `serve` reads them and calls the World,
 which advances simulated time, until the firmware idles at or past the run's
-end time. The opcodes are device/sim_wire.py's, imported, never retyped.
+end time. The opcodes are device/sim/sim_wire.py's, imported, never retyped.
 """
 
 import struct

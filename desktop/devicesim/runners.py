@@ -9,9 +9,9 @@ simulation HAL, or as a board runs it (its own HAL on stand-ins for the board's 
     dev.close()
 
 InProcessDevice and MicroPythonDevice run the same device/ code through
-device/hal_sim.py: in this process, or the "sim" runtime's image
+device/sim/hal_sim.py: in this process, or the "sim" runtime's image
 (desktop/firmware/image.py) in an interpreter as a child process, its link
-(device/sim_link.py) on the child's stdin/stdout, answered by
+(device/sim/sim_link.py) on the child's stdin/stdout, answered by
 link_host.HostLink. BoardDevice deploys the "micropython" or "circuitpython"
 runtime's files and runs its own HAL (hal_micropython.py, hal_circuitpython.py)
 on the stand-ins of stand-ins/ (simboard.py has the wiring); the serial line is
@@ -27,7 +27,7 @@ import threading
 
 from desktop.devicesim.costs import COSTS_S, costs_us
 from desktop.devicesim.link_host import HostLink
-from desktop.firmware.files import DEVICE, import_device, root_files
+from desktop.firmware.files import SIM, import_device, root_files
 from desktop.firmware.image import build_image
 from desktop.firmware.interpreters import interpreter as interpreter_path
 
@@ -228,7 +228,7 @@ def board_rom(rom, runtime):
     """A simulated board's ROM folder: the stand-ins for the runtime's C modules, the wiring
     (simboard.py) and the simulation link, as frozen modules sit on a board."""
     os.makedirs(rom, exist_ok=True)
-    for src in [os.path.join(STAND_INS, "simboard.py")] + [os.path.join(DEVICE, f) for f in ("sim_link.py", "sim_wire.py")] + \
+    for src in [os.path.join(STAND_INS, "simboard.py")] + [os.path.join(SIM, f) for f in ("sim_link.py", "sim_wire.py")] + \
             [os.path.join(STAND_INS, runtime, f) for f in sorted(os.listdir(os.path.join(STAND_INS, runtime)))]:
         shutil.copyfile(src, os.path.join(rom, os.path.basename(src)))
     return rom

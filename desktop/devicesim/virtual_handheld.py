@@ -204,7 +204,7 @@ class VirtualHandheld(VirtualBoard):
 
 
 class InProcessHandheld:
-    """The same live handheld with the firmware in this CPython process (device/hal_sim.py), its
+    """The same live handheld with the firmware in this CPython process (device/sim/hal_sim.py), its
     serial on the World's pty: no REPL and no deploying, for working on the protocol fast."""
 
     def __init__(self, root, sensor="mag649", seed=0, motion_seed=1, speed=1.0, on_behind=None):

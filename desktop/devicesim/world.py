@@ -7,7 +7,7 @@ serial line (a real pseudo-terminal).
     w.press(hold_s=0.2)                  # the operator's thumb, from now
     w.serial_port                        # path pyserial can open
 
-The firmware's sim HAL (device/hal_sim.py) talks to a World through a link:
+The firmware's sim HAL (device/sim/hal_sim.py) talks to a World through a link:
 in-process, World itself is the link object (the methods sim_link.PipeLink
 has); for the `micropython` executable, link_host.py decodes the pipe messages
 and calls the same methods. Simulated time advances only here, in `idle` and

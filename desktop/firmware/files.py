@@ -21,6 +21,7 @@ import sys
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DEVICE = os.path.join(REPO, "device")
+SIM = os.path.join(DEVICE, "sim")   # the simulated board's firmware files (flat on its image, as all are)
 MANIFEST = os.path.join(DEVICE, "manifest.py")
 PACKAGE_JSON = os.path.join(DEVICE, "package.json")
 RUNTIMES = ("micropython", "circuitpython", "sim")
@@ -110,12 +111,12 @@ def package_json_text():
 
 
 def import_device(name):
-    """A firmware module (device/NAME.py) imported into this CPython process.
+    """A firmware module (device/NAME.py, device/sim/NAME.py) imported into this CPython process.
 
     The firmware's modules import each other flat (`import app`), as on a
-    board, so device/ goes on sys.path, and the repository for `shared`.
+    board, so device/ and device/sim/ go on sys.path, and the repository for `shared`.
     """
-    for path in (REPO, DEVICE):
+    for path in (REPO, SIM, DEVICE):
         if path not in sys.path:
             sys.path.insert(0, path)
     return importlib.import_module(name)

@@ -6,7 +6,7 @@
 # storage, time) keep the documented behaviour and refusals of the modules they stand in
 # for; this module is the copper between them and the world: which GPIO goes to which pin
 # of the two ADS1292, the button and the LED (the Pico wiring of device/config.py's
-# defaults), and the simulation link (device/sim_link.py, device/sim_wire.py) over the two
+# defaults), and the simulation link (device/sim/sim_link.py, device/sim/sim_wire.py) over the two
 # file descriptors named in FLUXCAL_SIMBOARD_FDS, which the desktop's World answers
 # (desktop/devicesim/runners.py, BoardDevice).
 #
