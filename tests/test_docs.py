@@ -748,6 +748,29 @@ def test_code_cites_only_docs_that_exist():
     assert code_doc_citations("see docs/experiments.md, lag") == ["docs/experiments.md"]   # what it finds
 
 
+def firmware_table_files(path):
+    """The .py names in the first column of docs/firmware.md's `| file | what |` table."""
+    names, in_table = set(), False
+    with open(path, encoding="utf-8") as fh:
+        for line in fh:
+            if line.startswith("| file | what |"):
+                in_table = True
+            elif in_table and not line.startswith("|"):
+                break
+            elif in_table:
+                first = line.strip().strip("|").split("|")[0]
+                names.update(os.path.basename(n) for n in re.findall(r"`([\w/]+\.py)`", first))
+    return names
+
+
+def test_firmware_doc_has_a_row_for_every_firmware_file():
+    """docs/firmware.md's module table: one row (or a shared row) per file under device/."""
+    files = {n for _d, _s, names in os.walk(os.path.join(ROOT, "device")) for n in names
+             if n.endswith(".py") and n != "__init__.py"}
+    listed = firmware_table_files(os.path.join(ROOT, "docs", "firmware.md"))
+    assert listed == files, "not in the table: %s; not in device/: %s" % (sorted(files - listed), sorted(listed - files))
+
+
 def test_readme_command_table_lists_every_subcommand():
     """The README's table of commands: one row per `fluxcal` subcommand, none invented."""
     with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as fh:
