@@ -121,8 +121,8 @@ class CodeIndex:
         if dotted.endswith(".__init__"):
             dotted = dotted[:-9]
         self.modules[dotted] = path
-        if rel.startswith("device/") and "/" not in rel[7:]:
-            self.modules[rel[7:]] = path        # the firmware imports itself flat (`import app`)
+        if rel.startswith("device/"):
+            self.modules[rel.split("/")[-1]] = path   # deployed flat, the firmware imports `app`
         with open(path, encoding="utf-8") as fh:
             tree = ast.parse(fh.read(), path)
         top = set()
@@ -137,8 +137,8 @@ class CodeIndex:
             elif isinstance(node, (ast.Import, ast.ImportFrom)):
                 top.update((a.asname or a.name).split(".")[0] for a in node.names)
         self.toplevel[dotted] = top
-        if rel.startswith("device/") and "/" not in rel[7:]:
-            self.toplevel[rel[7:]] = top
+        if rel.startswith("device/"):
+            self.toplevel[rel.split("/")[-1]] = top
         options = set()
         for node in ast.walk(tree):
             if isinstance(node, ast.ClassDef):
