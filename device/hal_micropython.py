@@ -130,7 +130,9 @@ class Board(hal.Board):
 
     def time(self):
         t = time.time()
-        return t if t > 1600000000 else None   # no RTC set: unknown, not 2000-01-01
+        # no RTC set: unknown. An unset rp2 clock reads 2021-01-01 (1609459200, epoch 1970),
+        # others 2000-01-01: anything before 2022 was never set
+        return t if t >= 1640995200 else None
 
     def idle(self):
         machine.idle()   # sleeps until the next interrupt (DRDY within 1/rate s)

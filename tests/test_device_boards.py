@@ -49,7 +49,7 @@ MISUSE = [
      "buffer slices must be of equal length"),
     ("circuitpython", "import usb_cdc\nusb_cdc.enable(data=True)", "Cannot change USB devices now"),
     ("circuitpython", "import board, keypad\nkeypad.Keys((board.GP15,), pull=True)", "missing required keyword argument"),
-    ("micropython-float32", "import machine\nmachine.SPI(0, baud=1000000)", "unexpected keyword argument"),
+    ("micropython-float32", "import machine\nmachine.SPI(0, baud=1000000)", "extra keyword arguments given"),
     ("micropython-float32", "import machine\nmachine.SPI(0, sck=machine.Pin(5))", "bad SCK pin"),
     ("micropython-float32", "import machine\nmachine.SPI(2)", "doesn't exist"),
     ("micropython-float32", "import machine\nmachine.Pin(40)", "invalid pin"),

@@ -110,3 +110,20 @@ def test_close_ends_the_runner_and_its_process_group(pico):
     board.close()
     with pytest.raises(ProcessLookupError):
         os.killpg(pid, 0)
+
+
+def test_the_stand_ins_refusals_are_the_rp2_port_s_own(pico):
+    """Each refusal the `machine` stand-in copies (test_device_boards.MISUSE) is what the rp2
+    firmware itself says; and its unset clock reads 2021-01-01 in seconds since 1970, as the
+    `time` stand-in's does (the HAL takes anything before 2022 for a clock never set)."""
+    from tests.test_device_boards import MISUSE
+
+    board = pico()
+    for interpreter, snippet, message in MISUSE:
+        if interpreter != "micropython-float32":
+            continue
+        r = subprocess.run(MPREMOTE + ["connect", board.port, "exec", snippet], capture_output=True, text=True,
+                           timeout=120)
+        assert message in r.stdout + r.stderr, (snippet, r.stdout + r.stderr)
+    out = mpremote(board.port, "exec", "import time; print(time.time() // 86400)")
+    assert int(out) == 1609459200 // 86400, out

@@ -78,6 +78,13 @@ class Pin:
         return "Pin(GPIO%d)" % self._id
 
 
+def _no_extra(extra):
+    # the C argument parser's own words (mp_arg_parse_all), not a Python function's
+    # "unexpected keyword argument": checked on the rp2 firmware in the emulated Pico
+    if extra:
+        raise TypeError("extra keyword arguments given")
+
+
 class SPI:
     MSB = 0
     LSB = 1
@@ -85,7 +92,8 @@ class SPI:
     _PINS = {0: ((2, 6, 18, 22), (3, 7, 19, 23), (0, 4, 16, 20)), 1: ((10, 14, 26), (11, 15, 27), (8, 12, 28))}
 
     def __init__(self, id, baudrate=1000000, *, polarity=0, phase=0, bits=8, firstbit=MSB, sck=None,
-                 mosi=None, miso=None):
+                 mosi=None, miso=None, **extra):
+        _no_extra(extra)
         if id not in self._PINS:
             raise ValueError("SPI(%r) doesn't exist" % (id,))
         self._id = id
@@ -93,7 +101,8 @@ class SPI:
                   miso=miso)
 
     def init(self, baudrate=1000000, *, polarity=0, phase=0, bits=8, firstbit=MSB, sck=None, mosi=None,
-             miso=None):
+             miso=None, **extra):
+        _no_extra(extra)
         for pin, allowed, what in ((sck, self._PINS[self._id][0], "SCK"), (mosi, self._PINS[self._id][1], "MOSI"),
                                    (miso, self._PINS[self._id][2], "MISO")):
             if pin is not None and (not isinstance(pin, Pin) or pin._id not in allowed):

@@ -1,14 +1,15 @@
 # Stand-in for MicroPython's `time` module on the simulated handheld, from its documentation
 # (docs.micropython.org library/time): the ticks functions wrap at 2**30 as on every port
 # (ticks_diff and ticks_add do the modular arithmetic), sleeps let the world's time pass,
-# and time() counts from 2021-01-01 as an rp2 without a set RTC does. Not a module of the
-# desktop package.
+# and time() counts from 2021-01-01 00:00 in seconds since 1970, as the rp2 port's unset RTC
+# does (checked on its firmware in the emulated Pico: 1609459200 at power-on). Not a module of
+# the desktop package.
 import simboard
 
 _board = simboard.board()
 _PERIOD = 1 << 30
 _HALF = 1 << 29
-_EPOCH_2021 = 0   # seconds since 2021-01-01 at power-up: the RTC was never set
+_EPOCH_2021 = 1609459200   # 2021-01-01 00:00 since 1970 at power-up: the RTC was never set
 
 
 def ticks_us():
