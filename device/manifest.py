@@ -30,8 +30,13 @@ elif options.runtime == "sim":
     for name in ("hal_sim", "sim_link", "sim_main", "sim_wire"):
         module(name + ".py", base_path="sim", opt=3)
 
-# The calibration core, all of it (pure Python, the same files as on the desktop).
-package("shared", base_path="..", opt=3)
+# The calibration core the firmware runs (pure Python, the same files as on the desktop). Not
+# shipped: warmup.py and moved.py (coefficients from one long warm-up, which the firmware does
+# not fit). tests/test_firmware_files.py checks this list against what the firmware imports.
+package("shared", files=["__init__.py", "calibration.py", "codes.py", "coverage.py", "errors.py", "fit.py",
+                         "iteration.py", "linalg.py", "moments.py", "predicted.py", "prior.py", "quadric.py",
+                         "quick.py", "result.py", "solver.py", "start.py", "tempco.py"],
+        base_path="..", opt=3)
 
 # Entry points: copied to the filesystem's root, never frozen (a user edits or replaces them).
 ROOT_FILES = {"micropython": ("main.py",), "circuitpython": ("code.py", "boot.py"), "sim": ()}

@@ -23,7 +23,7 @@ for _n, _e in enumerate(ORDER):
     INDEX[_e] = _n
 COUNT = len(ORDER)  # 35
 
-_BINOM = ((1,), (1, 1), (1, 2, 1), (1, 3, 3, 1), (1, 4, 6, 4, 1))
+BINOM = ((1,), (1, 1), (1, 2, 1), (1, 3, 3, 1), (1, 4, 6, 4, 1))
 
 
 def _axis_sources(axis):
@@ -61,7 +61,7 @@ def shifted(sums, scale, centre):
         for _ in range(4):
             mc.append(mc[-1] * -c)
             sp.append(sp[-1] * scale)
-        coef = [[_BINOM[e][t] * sp[t] * mc[e - t] for t in range(e + 1)] for e in range(5)]
+        coef = [[BINOM[e][t] * sp[t] * mc[e - t] for t in range(e + 1)] for e in range(5)]
         src = _SOURCES[axis]
         out = []
         for n in range(COUNT):

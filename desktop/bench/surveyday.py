@@ -19,7 +19,7 @@ The codes go through the firmware's acquisition (device/acquisition.py: the last
 `window` of every `decim` conversions summed, integers; device/config.py
 defaults 1000 SPS, decim 10, window 2) and its rotation-rate gate (360 deg/s
 between neighbouring samples; the coverage cap is left out: a hand rotation does
-not linger), into shared.fit.EllipsoidFit / shared.tempco.WarmupFit as
+not linger), into shared.fit.EllipsoidFit / shared.warmup.WarmupFit as
 integers, solved with the nominal scale as the firmware does (device/session.py),
 then rescaled to codes. The spin's |h_c| is averaged over 0.1 s survey blocks
 (device/survey.py, survey_hz 10) and its peak-to-peak and rms (about the mean)
@@ -49,7 +49,8 @@ from desktop.sim.ads1292.registers import (
 )
 from desktop.sim.scenario import Scenario, simulate
 from shared.fit import EllipsoidFit
-from shared.tempco import WarmupFit, attach, fit_tempco
+from shared.tempco import attach, fit_tempco
+from shared.warmup import WarmupFit
 
 RATE, DECIM, WINDOW = 1000, 10, 2       # device/config.py defaults
 SURVEY_HZ = 10

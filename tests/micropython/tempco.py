@@ -10,7 +10,8 @@ import sys
 
 sys.path.insert(0, sys.argv[2])
 from shared.calibration import Calibration
-from shared.tempco import WarmupFit, fit_tempco
+from shared.tempco import fit_tempco
+from shared.warmup import WarmupFit
 
 
 def reprs(tc):
