@@ -25,7 +25,10 @@ fitted with ``solve(scale=lsb)`` and mapped back with
 
 from shared import solver
 from shared.errors import FitError  # noqa: F401 - the fit's error, imported from here by its users
+from shared.iteration import MAX_ITER
 from shared.moments import COUNT, bit_length
+from shared.prior import SHAPE_SIGMA
+from shared.solver import MIN_SAMPLES
 
 try:
     import micropython  # noqa: F401  (MicroPython, CircuitPython)
@@ -165,8 +168,9 @@ class EllipsoidFit:
         for k in range(COUNT):
             s[k] += o[k]
 
-    def solve(self, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175),
-              min_samples=12, max_iter=60, max_error=None, quick=True, refuse_worse=True, independent=1.0):
+    def solve(self, field=None, prior=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA,
+              min_samples=MIN_SAMPLES, max_iter=MAX_ITER, max_error=None, quick=True, refuse_worse=True,
+              independent=1.0):
         """Fit h_c = M (h - b) with |h_c| constant; return a Calibration.
 
         field: the known local field in the output unit (nT), or None to fit it.
@@ -184,10 +188,11 @@ class EllipsoidFit:
             (nT per ADC code per axis); sets the output unit when field is None
             and the frame of the physical prior.
         shape_sigma: (diagonal, off-diagonal) prior widths of the quadric's
-            shape about a sphere: 0.01 for gains within 0.5 %, 0.0175 for axes
-            within 1 degree of orthogonal; None for no prior.
+            shape about a sphere (shared.prior.SHAPE_SIGMA: gains within 0.5 %,
+            axes within 1 degree of orthogonal); None for no prior.
         max_error: reject (degenerate_coverage) if the predicted full-sphere
-            calibration error exceeds this (output unit); default 1 % of field.
+            calibration error exceeds this (output unit); default
+            shared.result.MAX_ERROR_SHARE (1 %) of the field.
 
         M is symmetric positive definite in the nominal axes (no spurious
         rotation of the frame). Raises FitError with .reason in

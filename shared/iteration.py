@@ -18,6 +18,12 @@ from shared.errors import FitError
 from shared.moments import bit_length, to_float
 from shared.quadric import FRAC, sym
 
+MAX_ITER = 60        # Levenberg-Marquardt iterations at most: the default of every solve
+# A solve of at most this many iterations is a provisional estimate (a device's, every few
+# seconds while collecting): its error estimate may use a normal matrix one step old, and a
+# quick re-calibration skips its shape test (shared/quick.py).
+PROVISIONAL_ITER = 2
+
 
 def quantise(x):
     return int(round(math.ldexp(float(x), FRAC)))
@@ -156,7 +162,7 @@ def iterate(pb, pr, st, num, max_iter, basis=None):
 
     # the error estimate needs the normal matrix at st: the last one was formed one step
     # before, and serves where that step was tiny or not taken, and for a quick solve
-    # (max_iter <= 2: a device's provisional estimate) whose result is an estimate anyway
-    if moved and not small and max_iter > 2:
+    # (max_iter <= PROVISIONAL_ITER: a device's provisional estimate) whose result is an estimate anyway
+    if moved and not small and max_iter > PROVISIONAL_ITER:
         h = None
     return st, h, iterations, rejected

@@ -96,6 +96,10 @@ def make_prior(pb, prior, field, num, kr, k_nom, shape_sigma, offset_nt=None, ga
     return pr
 
 
+# The physical prior's widths on the shape (diagonal, off-diagonal): gains within
+# 0.5 %, axes within 1 degree of orthogonal. The default of every solve's shape_sigma.
+SHAPE_SIGMA = (0.01, 0.0175)
+
 # A previous calibration of the same sensor: how far today's may differ.
 # Shape and gain within 2e-4 (about 10 nT at 50,000 nT); offsets within 10 nT
 # (fluxgate offset drift with temperature is of that order over a field day).

@@ -37,11 +37,11 @@ import math
 
 from shared.codes import DEGENERATE_COVERAGE, NOT_BETTER
 from shared.errors import FitError
-from shared.iteration import State, iterate, log_ratio, quantise
-from shared.prior import make_prior
+from shared.iteration import MAX_ITER, PROVISIONAL_ITER, State, iterate, log_ratio, quantise
+from shared.prior import SHAPE_SIGMA, make_prior
 from shared.quadric import FRAC, PAIR
-from shared.result import finish
-from shared.solver import setup, solve_state
+from shared.result import MAX_ERROR_SHARE, finish
+from shared.solver import MIN_SAMPLES, setup, solve_state
 
 # the 0.1 % points of chi^2 with 0..5 degrees of freedom: a model with more gains against
 # one with fewer; the full fit's shape (six) against the gains fitted
@@ -99,8 +99,8 @@ def _rms(pb, rss, field):
     return math.sqrt(max(0.0, float(pb.value(rss, -6 * FRAC)) / float(pb.nf))) / 2.0 * field
 
 
-def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175), min_samples=12,
-          max_iter=60, max_error=None, refuse_worse=True, models=GAIN_MODELS, independent=1.0):
+def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA, min_samples=MIN_SAMPLES,
+          max_iter=MAX_ITER, max_error=None, refuse_worse=True, models=GAIN_MODELS, independent=1.0):
     """Quick re-calibration from the power sums; see the module docstring.
 
     independent: the share of the samples that count as independent, (1 - rho) / (1 + rho)
@@ -121,9 +121,9 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
         raise FitError(DEGENERATE_COVERAGE, "the samples turned by %.1f degrees rms: turn the instrument"
                        % math.degrees(turn))
     stale = State(pb, pr, [quantise(x) for x in pr.a_frame], [quantise(x) for x in pr.f_target])
-    # a provisional estimate (a device's, every few seconds while collecting: max_iter <= 2)
-    # skips the shape test, a whole nine-parameter fit; the final solve runs it
-    provisional = max_iter <= 2
+    # a provisional estimate (a device's, every few seconds while collecting) skips the
+    # shape test, a whole nine-parameter fit; the final solve runs it
+    provisional = max_iter <= PROVISIONAL_ITER
     # one common gain first; a gain per ADC, then per axis, only where the data ask for them
     basis = _GainsAndOffsets(models[0])
     st, h, iterations, rejected = iterate(pb, pr, stale, num, max_iter, basis)
@@ -167,7 +167,7 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=(0.01, 0.01
         d = cal.diagnostics
 
     d["stale_rms"] = stale_rms
-    limit = max_error if max_error is not None else 0.01 * float(cal.field)
+    limit = max_error if max_error is not None else MAX_ERROR_SHARE * float(cal.field)
     if d["predicted_error"] > limit:
         raise FitError(DEGENERATE_COVERAGE, "predicted calibration error %.3g exceeds %.3g: rotate through more orientations"
                        % (d["predicted_error"], limit))

@@ -23,6 +23,10 @@ from shared.quadric import FRAC, sym
 # noisiest real MEMS log here (QMC5883L) scatters 6 % after the best fit, a
 # hyperboloid 19 %.
 MAX_MISFIT = 0.1
+# The predicted full-sphere error refused (degenerate_coverage) when the caller gives no
+# max_error: this share of the field (500 nT at 50,000 nT; the firmware's acceptance is
+# tighter, shared/codes.py MAX_PREDICTED_NT).
+MAX_ERROR_SHARE = 0.01
 
 
 def _isqrt(n):
@@ -105,7 +109,7 @@ def finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_err
         raise FitError(NON_FINITE, "calibration is not finite")
     if float(rms) > MAX_MISFIT * float(field_out):
         raise FitError(NOT_ELLIPSOID, "samples do not lie on an ellipsoid: residual %.3g rms is %.0f %% of the field" % (float(rms), 100.0 * float(rms) / float(field_out)))
-    limit = max_error if max_error is not None else 0.01 * float(field_out)
+    limit = max_error if max_error is not None else MAX_ERROR_SHARE * float(field_out)
     if float(predicted) > limit:
         raise FitError(DEGENERATE_COVERAGE, "predicted calibration error %.3g exceeds %.3g: rotate through more orientations" % (float(predicted), limit))
     diagnostics = {

@@ -22,11 +22,14 @@ CircuitPython floats and doubles therefore reach the same fixed point.
 from shared import linalg
 from shared.codes import DEGENERATE_COVERAGE, NON_FINITE, NOT_ELLIPSOID, TOO_FEW_SAMPLES
 from shared.errors import FitError
-from shared.iteration import State, iterate, quantise
-from shared.prior import make_prior
+from shared.iteration import MAX_ITER, State, iterate, quantise
+from shared.prior import SHAPE_SIGMA, make_prior
 from shared.quadric import Problem
 from shared.result import finish
 from shared.start import initial_guesses
+
+MIN_SAMPLES = 12            # fewer samples: too_few_samples (nine parameters and some to spare)
+MIN_OBSERVABILITY = 1e-6    # samples' smallest spread / largest below this span no volume
 
 
 def setup(sums, field, num, scale, min_samples):
@@ -52,15 +55,15 @@ def setup(sums, field, num, scale, min_samples):
     return pb, k_nom, kr, float(min(values) / top)
 
 
-def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175),
-          min_samples=12, max_iter=60, max_error=None, min_observability=1e-6):
+def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA,
+          min_samples=MIN_SAMPLES, max_iter=MAX_ITER, max_error=None, min_observability=MIN_OBSERVABILITY):
     """See EllipsoidFit.solve (all nine parameters; a prior is a weak one); a Calibration or FitError."""
     return solve_state(sums, field, prior, num, scale, shape_sigma, min_samples, max_iter, max_error,
                        min_observability)[0]
 
 
-def solve_state(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=(0.01, 0.0175),
-                min_samples=12, max_iter=60, max_error=None, min_observability=1e-6):
+def solve_state(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA,
+                min_samples=MIN_SAMPLES, max_iter=MAX_ITER, max_error=None, min_observability=MIN_OBSERVABILITY):
     """solve(), also returning the converged state (its exact RSS: shared.quick's shape test)."""
     pb, k_nom, kr, observability = setup(sums, field, num, scale, min_samples)
     n = pb.n

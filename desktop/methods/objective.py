@@ -13,6 +13,7 @@ import numpy as np
 
 from desktop.methods._common import normalise, quadric_to_calibration, sym6
 from desktop.methods.algebraic import fit_li_griffiths
+from shared.prior import SHAPE_SIGMA
 
 _PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
 
@@ -25,7 +26,7 @@ def _shape(a6):
     return q, dq
 
 
-def fit_objective(h, field=None, shape_sigma=(0.01, 0.0175), max_iter=100):
+def fit_objective(h, field=None, shape_sigma=SHAPE_SIGMA, max_iter=100):
     v, centre, scale = normalise(h)
     m0, b0, f0 = fit_li_griffiths(h)
     a0 = (m0 @ m0) / f0**2 * scale**2
