@@ -129,14 +129,24 @@ def _open(port, timeout):
 
 
 def _open_problem(port, exc):
-    code = getattr(exc, "errno", None)
-    text = str(exc)
-    if "exclusively lock" in text or code in (errno.EAGAIN, errno.EBUSY):
+    """One line for a port pyserial could not open. Told apart by errno, which pyserial's
+    open() sets from the OSError of opening the device or of its exclusive lock; a file
+    that is no terminal fails later, in termios, which pyserial re-raises without one."""
+    code = exc.errno
+    if code in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EBUSY):   # the lock (flock) or the driver
         return "%s is in use by another program (a terminal, mpremote, Thonny, another fluxcal): close it" % port
     if code == errno.ENOENT:
         return "%s: no such port (fluxcal status without --port lists the boards attached)" % port
     if code == errno.EACCES:
         return "%s: permission denied (on Linux, join the dialout group)" % port
-    if "configure port" in text:
+    if _not_a_terminal(exc.__context__):
         return "%s is not a serial port" % port
-    return "cannot open %s: %s" % (port, text)
+    return "cannot open %s: %s" % (port, exc)
+
+
+def _not_a_terminal(cause):
+    try:
+        import termios   # POSIX; pyserial's Windows back end has no such step
+    except ImportError:
+        return False
+    return isinstance(cause, termios.error)
