@@ -16,8 +16,6 @@
 Every failure is a LinkError whose message is one line a person can act on.
 """
 
-from shared.codes import PROTOCOL_VERSION as PROTOCOL   # the version this client speaks (docs/protocol.md)
-
 
 class LinkError(Exception):
     """The device cannot be reached or understood: one line, for a person."""

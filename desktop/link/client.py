@@ -20,8 +20,9 @@ import time
 
 import serial
 
-from desktop.link import PROTOCOL, DeviceError, LinkError
+from desktop.link import DeviceError, LinkError
 from desktop.link.lines import LineReader
+from shared.codes import PROTOCOL_VERSION   # the version this client speaks (docs/protocol.md)
 
 READ_SLICE_S = 0.05    # one pyserial read blocks at most this long; deadlines are checked between reads
 MAX_KEPT_EVENTS = 20000
@@ -44,10 +45,10 @@ class Device:
         self._write(b"\n")
         self.info = self.ask("version")
         proto = self.info.get("proto", self.info.get("v"))
-        if proto != PROTOCOL:
+        if proto != PROTOCOL_VERSION:
             raise LinkError("the firmware on %s (fw %s) speaks protocol version %s, this fluxcal version %d: "
                             "install matching firmware (fluxcal deploy) or fluxcal"
-                            % (self.port, self.info.get("fw", "?"), proto, PROTOCOL))
+                            % (self.port, self.info.get("fw", "?"), proto, PROTOCOL_VERSION))
         return self.info
 
     def ask(self, command, timeout=None):
