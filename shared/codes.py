@@ -18,6 +18,20 @@ PROTOCOL_VERSION = 1
 # checks its set-cal request against it before sending).
 MAX_LINE = 2048
 
+# ****** events: an event line's "ev" (`{"v": 1, "ev": NAME, ...}`), unasked ******
+EV_BOOT = "boot"
+EV_CAL = "cal"              # a calibration session's progress and its end (state below)
+EV_DATA = "data"            # a survey sample, corrected (stream on / corrected)
+EV_RAW = "raw"              # a survey sample in ADC codes (stream raw)
+EV_ERROR = "error"
+EV_FAULT = "fault"          # an ADC fault begins, changes or clears
+EV_SAFE_MODE = "safe_mode"
+
+# ****** the device's state: status's "state" ******
+SURVEY = "survey"
+CALIBRATING = "calibrating"
+# FAULT below is the third.
+
 # ****** error codes: an error reply's "error" (`{"ok": false, "error": CODE, "msg": ...}`) ******
 # Framing and the handler's own exception type (device/protocol.py):
 LINE_TOO_LONG = "line_too_long"

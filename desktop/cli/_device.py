@@ -13,6 +13,7 @@ import contextlib
 import sys
 
 from desktop.cli._errors import CommandError
+from shared import codes
 
 
 def add_port_arguments(p):
@@ -87,7 +88,7 @@ def stream_events(dev, name, seconds=None, silence=None):
         if ev is not None and ev.get("ev") == name:
             last = now
             yield ev
-        elif ev is not None and ev.get("ev") == "boot":
+        elif ev is not None and ev.get("ev") == codes.EV_BOOT:
             raise LinkError("the device on %s rebooted (a reset or the power)" % dev.port)
         elif now - last >= silence:
             raise LinkError("no %s from the device on %s for %.0f s: it stopped, reset or was unplugged"

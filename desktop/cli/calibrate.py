@@ -87,7 +87,7 @@ def _follow(dev, cfg, auto, view, keys):
     silence = max(SILENCE_S, 2.5 * dev.timeout)
     while True:
         ev = dev.next_event(0.1)
-        if ev is not None and ev.get("ev") == "cal":
+        if ev is not None and ev.get("ev") == codes.EV_CAL:
             last = time.monotonic()
             if ev.get("state") != codes.COLLECTING:
                 return ev
@@ -115,7 +115,7 @@ def _verify(dev, seconds, cfg):
     before = dev.ask("status")["stream"]
     dev.ask("stream corrected")
     try:
-        f = [ev["f"] for ev in stream_events(dev, "data", seconds, max(3.0, 5.0 / cfg["survey_hz"]))]
+        f = [ev["f"] for ev in stream_events(dev, codes.EV_DATA, seconds, max(3.0, 5.0 / cfg["survey_hz"]))]
     finally:
         quietly(dev, "stream %s" % before)
     if len(f) < 2:

@@ -14,6 +14,7 @@ import time
 from desktop.cli._errors import CommandError
 from desktop.cli._device import (add_port_arguments, connected, device_config, nT_per_code, quietly,
                                  stream_events, unwrap_ms)
+from shared import codes
 
 HELP = "record the handheld's raw samples (codes, temperature) to a capture file fluxcal fit reads"
 
@@ -60,7 +61,7 @@ def _record(dev, seconds, hz):
     """The raw events for `seconds`, with a progress bar on a terminal."""
     silence = max(3.0, 5.0 / hz)
     if not sys.stdout.isatty():
-        return list(stream_events(dev, "raw", seconds, silence))
+        return list(stream_events(dev, codes.EV_RAW, seconds, silence))
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
     events = []
@@ -68,7 +69,7 @@ def _record(dev, seconds, hz):
     with Progress(TextColumn("capturing"), BarColumn(), TextColumn("{task.fields[n]} samples"),
                   TimeRemainingColumn(), transient=True) as bar:
         task = bar.add_task("capture", total=seconds, n=0)
-        for ev in stream_events(dev, "raw", seconds, silence):
+        for ev in stream_events(dev, codes.EV_RAW, seconds, silence):
             events.append(ev)
             bar.update(task, completed=time.monotonic() - start, n=len(events))
     return events

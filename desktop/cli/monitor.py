@@ -15,6 +15,7 @@ import time
 from desktop.cli._errors import CommandError
 from desktop.cli._device import (add_port_arguments, connected, device_config, nT_per_code, quietly,
                                  stream_events)
+from shared import codes
 
 HELP = "live |B| from the handheld: rolling peak-to-peak and standard deviation (--plot: a live plot)"
 
@@ -65,7 +66,7 @@ def run(args):
         raise CommandError("--seconds must be positive")
     if not args.window > 0:
         raise CommandError("--window must be positive")
-    name = "raw" if args.raw else "data"
+    name = codes.EV_RAW if args.raw else codes.EV_DATA
     with connected(args) as dev:
         cfg = device_config(dev)
         scale = nT_per_code(cfg)

@@ -58,7 +58,7 @@ def _progress(lines):
     """Progress events with the seconds since the first one (events come once per second)."""
     out = []
     for d in _parse(lines):
-        if d.get("ev") == "cal" and d.get("state") == codes.COLLECTING:
+        if d.get("ev") == codes.EV_CAL and d.get("state") == codes.COLLECTING:
             d["t_s"] = float(len(out))
             out.append(d)
     return out
@@ -114,24 +114,24 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
         while t < t_press + rotate_s and done is None:
             t = min(t + 1.0, t_press + rotate_s)
             dev.run_until(t)
-            for e in events(w, "cal", n0):
+            for e in events(w, codes.EV_CAL, n0):
                 if e.get("state") in _ENDED:
                     done = e
             n0 = len(w.lines())
             if progress:
-                progress(w.time - t_press, events(w, "cal")[-1:])
+                progress(w.time - t_press, events(w, codes.EV_CAL)[-1:])
         rotated = w.time - t_press
         if done is None:   # no auto-finish: the operator presses again
             w.press(0.2)
             dev.run_until(w.time + 0.5)
-            for e in events(w, "cal", n0):
+            for e in events(w, codes.EV_CAL, n0):
                 if e.get("state") in _ENDED:
                     done = e
         send(dev, w, "get-coverage")
         cov = events(w)[-1]
         send(dev, w, "status")
         cal_status = events(w)[-1]
-        collecting = [e for e in events(w, "cal") if e.get("state") == codes.COLLECTING]
+        collecting = [e for e in events(w, codes.EV_CAL) if e.get("state") == codes.COLLECTING]
         cal_lines = w.lines()
     finally:
         dev.close()
