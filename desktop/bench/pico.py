@@ -64,8 +64,8 @@ def _window(hh, wall_s):
 
 
 def run(window_s=20.0, log=print):
-    from desktop.cli.deploy import check_version
     from desktop.firmware.deploy import MicroPythonDeploy, firmware_version
+    from desktop.link import wait_for_version
 
     rows = []
     with tempfile.TemporaryDirectory(prefix="fluxcal-pico-bench-") as tmp:
@@ -75,7 +75,7 @@ def run(window_s=20.0, log=print):
             deploy_wall = time.monotonic() - t
             log("deployed in %.1f wall s" % deploy_wall)
             # a request sent while it boots is lost, as on a board re-enumerating: ask until it answers
-            check_version(hh.port, firmware_version("micropython"), wait_s=300.0)
+            wait_for_version(hh.port, firmware_version("micropython"), wait_s=300.0)
             st = _status(hh.port)
             f = hh.board.figures()
             boot_s = f["ns"] / 1e9 - st["uptime_ms"] / 1e3     # since the reset that ended the deploy

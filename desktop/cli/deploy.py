@@ -7,8 +7,6 @@ resets the board, and the firmware must then answer `version` with the version d
 version is checked on the board's data port.
 """
 
-import time
-
 from desktop.cli._errors import CommandError
 from shared import codes
 
@@ -65,26 +63,14 @@ def hand_back(port):
 
 
 def check_version(port, expected, wait_s=20.0):
-    """Wait until the firmware on `port` answers `version` (after a reset the port may come and go);
+    """Wait until the firmware on `port` answers `version` (desktop.link.wait_for_version);
     its reply, or CommandError when it is not `expected` or nothing answered within wait_s."""
-    from desktop.link import LinkError, open_device
+    from desktop.link import LinkError, wait_for_version
 
-    deadline = time.monotonic() + wait_s
-    last = "nothing answered"
-    while time.monotonic() < deadline:
-        try:
-            dev = open_device(port, timeout=1.0)
-        except LinkError as exc:
-            last = str(exc)
-            time.sleep(0.2)
-            continue
-        dev.close()
-        if dev.info.get("fw") != expected:
-            raise CommandError("the board on %s runs firmware %s, not the %s just deployed"
-                               % (port, dev.info.get("fw"), expected))
-        return dev.info
-    raise CommandError("the firmware did not answer `version` on %s within %g s of the deploy: %s"
-                       % (port, wait_s, last))
+    try:
+        return wait_for_version(port, expected, wait_s)
+    except LinkError as exc:
+        raise CommandError(str(exc)) from None
 
 
 def run(args):

@@ -42,3 +42,26 @@ def open_device(port=None, timeout=2.0):
         dev.close()
         raise
     return dev
+
+
+def wait_for_version(port, expected, wait_s=20.0):
+    """Wait until the firmware on `port` answers `version` (after a reset the port may come and go);
+    its reply, or LinkError when it is not `expected` or nothing answered within wait_s."""
+    import time
+
+    deadline = time.monotonic() + wait_s
+    last = "nothing answered"
+    while time.monotonic() < deadline:
+        try:
+            dev = open_device(port, timeout=1.0)
+        except LinkError as exc:
+            last = str(exc)
+            time.sleep(0.2)
+            continue
+        dev.close()
+        if dev.info.get("fw") != expected:
+            raise LinkError("the board on %s runs firmware %s, not the %s just deployed"
+                            % (port, dev.info.get("fw"), expected))
+        return dev.info
+    raise LinkError("the firmware did not answer `version` on %s within %g s of the deploy: %s"
+                    % (port, wait_s, last))
