@@ -12,7 +12,7 @@ field moves), the fitted field against field_nt, and each axis' gain against the
 configured front end.
 """
 
-QUICK = "quick"       # diagnostics["mode"] of a quick re-calibration (shared/quick.py)
+from shared import codes
 
 
 def _number(d, key):
@@ -26,26 +26,26 @@ def check_calibration(cal, cfg, k):
     d = cal.diagnostics
     rms = _number(d, "rms")
     if rms is not None and rms > cfg["max_rms_nt"]:
-        return ("rms_too_high", "fit residual %.2f nT > %.2f nT: hold the sensor away from iron and rotate smoothly"
+        return (codes.RMS_TOO_HIGH, "fit residual %.2f nT > %.2f nT: hold the sensor away from iron and rotate smoothly"
                 % (rms, cfg["max_rms_nt"]))
     obs = _number(d, "observability")
     # a quick re-calibration takes its shape from the previous one: a cap is what it is for
-    if obs is not None and obs < cfg["min_observability"] and d.get("mode") != QUICK:
-        return ("poor_observability", "observability %.3f < %.3f: rotate about all three axes"
+    if obs is not None and obs < cfg["min_observability"] and d.get("mode") != codes.QUICK:
+        return (codes.POOR_OBSERVABILITY, "observability %.3f < %.3f: rotate about all three axes"
                 % (obs, cfg["min_observability"]))
     pe = _number(d, "predicted_error")
     if pe is not None and pe > cfg["max_predicted_nt"]:
         rho = _number(d, "residual_rho")
         if rho is not None and rho > 0.5:
-            return ("predicted_error_too_high", "predicted error %.2f nT > %.2f nT: the residuals follow each other"
+            return (codes.PREDICTED_ERROR_TOO_HIGH, "predicted error %.2f nT > %.2f nT: the residuals follow each other"
                     " (rho %.2f): the sensor lags the turn (check sensor_bandwidth_hz) or the field moves: turn slower"
                     % (pe, cfg["max_predicted_nt"], rho))
-        return ("predicted_error_too_high", "predicted error %.2f nT > %.2f nT: cover more orientations"
+        return (codes.PREDICTED_ERROR_TOO_HIGH, "predicted error %.2f nT > %.2f nT: cover more orientations"
                 % (pe, cfg["max_predicted_nt"]))
     f0 = cfg["field_nt"]
     if f0:
         if abs(cal.field / f0 - 1.0) > cfg["field_tol"]:
-            return ("field_out_of_range", "fitted field %.0f nT, configured %.0f nT +- %.0f %%: check the site or scale_x/y/z"
+            return (codes.FIELD_OUT_OF_RANGE, "fitted field %.0f nT, configured %.0f nT +- %.0f %%: check the site or scale_x/y/z"
                     % (cal.field, f0, 100 * cfg["field_tol"]))
     # Gains within 25 % of the configured front end: anything else is a wrong
     # scale setting or a broken channel, not a calibration.
@@ -53,6 +53,6 @@ def check_calibration(cal, cfg, k):
     for i in range(3):
         g = m[i][i] / k[i]
         if not 0.75 < g < 1.25:
-            return ("bad_scale", "axis %s gain %.3f of nominal: check scale_%s and the front end"
+            return (codes.BAD_SCALE, "axis %s gain %.3f of nominal: check scale_%s and the front end"
                     % ("xyz"[i], g, "xyz"[i]))
     return None

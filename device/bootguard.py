@@ -33,6 +33,8 @@ import os
 
 from store import file_path
 
+from shared import codes
+
 NAME = "boot.txt"
 SAFE_AFTER = 2         # unfinished boots before this one
 HEALTHY_MS = 5000      # main loop time without an escaping error that counts as a good boot
@@ -134,7 +136,7 @@ class Guard:
             self._error_event_ms = now
             self.proto.event("error", {"where": "main_loop", "error": self.last_error[:200], "count": self.errors})
         flow = self.flow
-        flow.abort("internal_error", self.last_error[:200])
+        flow.abort(codes.INTERNAL_ERROR, self.last_error[:200])
         if self._in_row >= SAFE_AFTER_ERRORS and flow.cal is not None:
             self.safe_mode = "the main loop failed %d times in a row with the calibration applied: %s" % (
                 self._in_row, self.last_error[:120])

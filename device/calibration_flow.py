@@ -27,6 +27,7 @@ import store
 from button import LONG, SHORT
 from protocol import ProtocolError, json_number
 from session import AUTO, FULL, KINDS, QUICK, Session
+from shared import codes
 from shared.calibration import Calibration
 
 SOLVE = "solve"   # board.busy key: a solve, charged as simulated time by the simulated board
@@ -75,7 +76,7 @@ class CalibrationFlow:
             try:
                 self.start(AUTO if ev == SHORT else QUICK)
             except ProtocolError as e:
-                self.proto.event("cal", {"state": "failed", "reason": e.code, "msg": str(e)})
+                self.proto.event("cal", {"state": codes.FAILED, "reason": e.code, "msg": str(e)})
                 self.led.flash(ledp.FAILED)
         elif ev == SHORT:
             self.finish()
@@ -104,14 +105,14 @@ class CalibrationFlow:
 
     def start(self, kind=AUTO):
         if self.session is not None:
-            raise ProtocolError("busy", "calibration already in progress")
+            raise ProtocolError(codes.BUSY, "calibration already in progress")
         sup = self.supervisor
         if sup.fault:
-            raise ProtocolError("fault", "ADC fault (%s): %s" % (sup.fault_code, sup.fault))
+            raise ProtocolError(codes.FAULT, "ADC fault (%s): %s" % (sup.fault_code, sup.fault))
         if kind not in KINDS:
-            raise ProtocolError("bad_argument", "kind must be auto, full or quick")
+            raise ProtocolError(codes.BAD_ARGUMENT, "kind must be auto, full or quick")
         if kind == QUICK and self.cal is None:
-            raise ProtocolError("no_calibration", "a quick re-calibration needs a calibration in force: run a full one")
+            raise ProtocolError(codes.NO_CALIBRATION, "a quick re-calibration needs a calibration in force: run a full one")
         c = self.cfg
         period_ms = 1000.0 * c["decim"] / c["rate"]
         # the previous calibration as it stands now (its temperature coefficients applied)
@@ -203,7 +204,7 @@ class CalibrationFlow:
     def _end(self):
         s = self.session
         if s is None:
-            raise ProtocolError("not_calibrating", "no calibration in progress")
+            raise ProtocolError(codes.NOT_CALIBRATING, "no calibration in progress")
         self.session = None
         self.output.session = None
         self.last_coverage = s.cov
@@ -260,7 +261,7 @@ class CalibrationFlow:
             "cal_problem": self.cal_problem,
             # which kind made the calibration in force, and the range its temperature
             # coefficients were measured over (None: uncompensated)
-            "cal_kind": cal.meta.get("kind", "full") if cal is not None else None,
+            "cal_kind": cal.meta.get("kind", FULL) if cal is not None else None,
             "tempco_range": cal.tempco["range_c"] if cal is not None and cal.tempco else None,
             "last_cal": self.last_result,
         }

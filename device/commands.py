@@ -13,10 +13,10 @@ import gc
 import json
 import sys
 
-import session
-from acceptance import check_calibration
 import config as cfgmod
+from acceptance import check_calibration
 from protocol import VERSION, ProtocolError, json_number
+from shared import codes
 from shared.calibration import Calibration
 
 
@@ -27,13 +27,13 @@ def parse_value(text):
         try:
             return json.loads(t)
         except ValueError:
-            raise ProtocolError("bad_value", "cannot parse value %r" % t[:40])
+            raise ProtocolError(codes.BAD_VALUE, "cannot parse value %r" % t[:40])
     return t
 
 
 def _idle(app):
     if app.flow.session is not None:
-        raise ProtocolError("busy", "calibration in progress; cancel-cal first")
+        raise ProtocolError(codes.BUSY, "calibration in progress; cancel-cal first")
 
 
 def version(app, args):
@@ -59,11 +59,11 @@ def get_cal(app, args):
 def set_cal(app, args):
     _idle(app)
     if not args.startswith("{"):
-        raise ProtocolError("bad_argument", "set-cal takes a calibration JSON object")
+        raise ProtocolError(codes.BAD_ARGUMENT, "set-cal takes a calibration JSON object")
     try:
         d = json.loads(args)
     except ValueError:
-        raise ProtocolError("bad_json", "set-cal argument is not valid JSON")
+        raise ProtocolError(codes.BAD_JSON, "set-cal argument is not valid JSON")
     cal = Calibration.from_dict(d)  # ValueError names the problem
     problem = check_calibration(cal, app.cfg, app.flow.scale)
     if problem:
@@ -71,7 +71,7 @@ def set_cal(app, args):
     cal.meta["source"] = "set-cal"
     saved, err = app.flow.install(cal)
     if not saved:
-        raise ProtocolError("io_error", "calibration active but not saved: %s" % err)
+        raise ProtocolError(codes.IO_ERROR, "calibration active but not saved: %s" % err)
     return {"saved": True}
 
 
@@ -80,7 +80,7 @@ def clear_cal(app, args):
     try:
         app.flow.clear()
     except OSError as e:
-        raise ProtocolError("io_error", "cal.json could not be removed (%s): the calibration stays in force"
+        raise ProtocolError(codes.IO_ERROR, "cal.json could not be removed (%s): the calibration stays in force"
                             % (e,))
     return {}
 
@@ -88,7 +88,7 @@ def clear_cal(app, args):
 def start_cal(app, args):
     # start-cal [auto|full|quick]: auto (the button's short press) ends quick when a
     # calibration is in force and the coverage stays partial, else full
-    kind = args.strip() or session.AUTO
+    kind = args.strip() or codes.AUTO
     app.flow.start(kind)
     return {"kind": app.flow.session.kind}
 
@@ -106,7 +106,7 @@ def get_coverage(app, args):
     flow = app.flow
     cov = flow.session.cov if flow.session is not None else flow.last_coverage
     if cov is None:
-        raise ProtocolError("no_coverage", "no calibration since boot")
+        raise ProtocolError(codes.NO_COVERAGE, "no calibration since boot")
     return {"cells_per_edge": cov.edge, "counts": list(cov.counts), "fraction": json_number(cov.fraction())}
 
 
@@ -115,7 +115,7 @@ def stream(app, args):
     if words[:1] == ["on"]:
         words = words[1:] or ["corrected"]
     if len(words) != 1 or words[0] not in ("off", "raw", "corrected"):
-        raise ProtocolError("bad_argument", "stream takes: on [raw|corrected] | raw | corrected | off")
+        raise ProtocolError(codes.BAD_ARGUMENT, "stream takes: on [raw|corrected] | raw | corrected | off")
     app.output.set_stream(words[0])
     return {"stream": app.output.stream}
 
@@ -123,13 +123,13 @@ def stream(app, args):
 def config(app, args):
     words = args.split(None, 2)
     if not words or words[0] not in ("get", "set"):
-        raise ProtocolError("bad_argument", "config get [KEY] | config set KEY VALUE")
+        raise ProtocolError(codes.BAD_ARGUMENT, "config get [KEY] | config set KEY VALUE")
     if words[0] == "get":
         if len(words) == 1:
             return {"config": app.cfg}
         return {"key": words[1], "value": app.cfg[_known_key(app, words[1])]}
     if len(words) != 3:
-        raise ProtocolError("bad_argument", "config set KEY VALUE")
+        raise ProtocolError(codes.BAD_ARGUMENT, "config set KEY VALUE")
     _idle(app)
     key = _known_key(app, words[1])
     new = dict(app.cfg)
@@ -137,14 +137,14 @@ def config(app, args):
         new[key] = cfgmod.check(key, parse_value(words[2]))
         cfgmod.cross_check(new)
     except ValueError as e:
-        raise ProtocolError("bad_value", str(e))
+        raise ProtocolError(codes.BAD_VALUE, str(e))
     app.apply_config(new)
     return {"key": key, "value": new[key]}
 
 
 def _known_key(app, key):
     if key not in app.cfg:
-        raise ProtocolError("unknown_key", "unknown config key %r" % key[:40])
+        raise ProtocolError(codes.UNKNOWN_KEY, "unknown config key %r" % key[:40])
     return key
 
 

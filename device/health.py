@@ -31,6 +31,7 @@ alone (a stuck DRDY passes a probe).
 import led as ledp
 from acquisition import BADSYNC, BLOCKS, FRAMES, LASTBAD
 from ads1292 import ADS1292Pair
+from shared import codes
 
 CHECK_MS = 250
 REPROBE_MS = 2000
@@ -168,7 +169,7 @@ class AdcSupervisor:
         if first or code != self._last_code:
             self.proto.event("fault", {"code": code, "msg": msg})
         self._last_code = code
-        self.flow.abort("fault", msg, False)
+        self.flow.abort(codes.FAULT, msg, False)
 
     def check(self, now):
         """Health of a running ADC; re-probe a faulty one every health.reprobe_ms."""

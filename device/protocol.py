@@ -6,7 +6,7 @@
 
 Request:  COMMAND [ARGS]\\n     (ASCII; set-cal takes a JSON object as ARGS)
 Reply:    {"v": 1, "ok": true, "cmd": "status", ...}\\n
-Error:    {"v": 1, "ok": false, "cmd": "x", "error": "unknown_command", "msg": "..."}\\n
+Error:    {"v": 1, "ok": false, "cmd": "x", "error": codes.UNKNOWN_COMMAND, "msg": "..."}\\n
 Event:    {"v": 1, "ev": "cal" | "data" | "raw" | "boot" | "log", ...}\\n
 
 This module only frames lines and writes replies; the commands and their table
@@ -20,8 +20,10 @@ never grows past MAX_LINE, so a flood without newlines costs no memory.
 
 import json
 
-VERSION = 1
-MAX_LINE = 2048
+from shared import codes
+
+VERSION = codes.PROTOCOL_VERSION
+MAX_LINE = codes.MAX_LINE   # request bytes before the newline
 
 
 def json_number(x, nd=3):
@@ -80,7 +82,7 @@ class Protocol:
             if b == 10:  # \n
                 if self._overlong:
                     self._overlong = False
-                    self.error("", "line_too_long", "line longer than %d bytes discarded" % MAX_LINE)
+                    self.error("", codes.LINE_TOO_LONG, "line longer than %d bytes discarded" % MAX_LINE)
                 else:
                     line = bytes(self._buf)
                     self._buf = bytearray()
@@ -103,10 +105,10 @@ class Protocol:
             return
         for b in raw:
             if b > 126:
-                self.error("", "bad_encoding", "request is not ASCII text")
+                self.error("", codes.BAD_ENCODING, "request is not ASCII text")
                 return
             if b < 32 and b != 9:
-                self.error("", "bad_request", "control character in request")
+                self.error("", codes.BAD_REQUEST, "control character in request")
                 return
         line = raw.decode()
         sp = line.find(" ")
@@ -114,17 +116,17 @@ class Protocol:
         args = "" if sp < 0 else line[sp + 1:].strip()
         fn = self.commands.get(cmd)
         if fn is None:
-            self.error(cmd[:32], "unknown_command", "unknown command %r; try help" % cmd[:32])
+            self.error(cmd[:32], codes.UNKNOWN_COMMAND, "unknown command %r; try help" % cmd[:32])
             return
         try:
             self.reply(cmd, fn(self.context, args))
         except ProtocolError as e:
             self.error(cmd, e.code, str(e))
         except ValueError as e:   # a value the handler's parsing or validation refused
-            self.error(cmd, "bad_argument", str(e) or "bad argument")
+            self.error(cmd, codes.BAD_ARGUMENT, str(e) or "bad argument")
         except OSError as e:
-            self.error(cmd, "io_error", str(e))
+            self.error(cmd, codes.IO_ERROR, str(e))
         except MemoryError:
-            self.error(cmd, "no_memory", "request needs more memory than the device has")
+            self.error(cmd, codes.NO_MEMORY, "request needs more memory than the device has")
         except Exception as e:  # noqa: BLE001 - a firmware bug: say so, keep serving
-            self.error(cmd, "internal_error", "%s: %s" % (e.__class__.__name__, e))
+            self.error(cmd, codes.INTERNAL_ERROR, "%s: %s" % (e.__class__.__name__, e))

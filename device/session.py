@@ -22,20 +22,14 @@ gates.py's; whether the result may be used, acceptance.py's (set-cal uses it too
 
 import math
 
-from acceptance import QUICK, check_calibration
+from acceptance import check_calibration
 from gates import HIST, Gates, disturbance_limit
+from shared import codes
+from shared.codes import AUTO, CANCELLED, COLLECTING, DONE, FAILED, FULL, QUICK, RESHAPED
 from shared.coverage import Coverage
 from shared.fit import EllipsoidFit, FitError
 
-FULL = "full"
-RESHAPED = "reshaped"     # a quick session whose data said the shape moved (shared/quick.py)
-AUTO = "auto"
-KINDS = (AUTO, FULL, QUICK)
-
-COLLECTING = "collecting"
-DONE = "done"
-FAILED = "failed"
-CANCELLED = "cancelled"
+KINDS = (AUTO, FULL, QUICK)   # start-cal's (the session's states and kinds: shared/codes.py)
 
 _MIN_PROVISIONAL = 60
 # Gauss-Newton steps of a provisional solve. It only sets the disturbance gate and
@@ -202,7 +196,7 @@ class Session:
 
     def cancel(self):
         self.state = CANCELLED
-        self.reason = "cancelled"
+        self.reason = codes.CANCELLED
         self.message = "cancelled by the operator"
 
     def finish(self):
@@ -210,7 +204,7 @@ class Session:
         # Clipping first: the orientations where the ADC saturates are missing from the fit
         # and would be wrong in the survey, whatever the residual says.
         if self.clipped * CLIP_FRACTION > self.gates.seen + self.clipped:
-            return self._fail("clipped", "%d samples hit the ADC's full scale%s: lower the PGA gain (gain_x/y/z)"
+            return self._fail(codes.CLIPPED, "%d samples hit the ADC's full scale%s: lower the PGA gain (gain_x/y/z)"
                               " or keep magnets and iron away; the sensor saturates there"
                               % (self.clipped, "" if self.clip_axis is None else " on " + "xyz"[self.clip_axis]))
         try:
@@ -255,8 +249,8 @@ class Session:
         # most samples of a couple of seconds or more turned faster than the gate: that,
         # not the coverage, is the reason (a session finished at once says too_few_samples)
         g = self.gates
-        if g.seen >= 2 * g.back and g.rej_rate * 2 > g.seen and reason != "not_better":
-            return self._fail("too_fast", "%d of %d samples turned faster than %.0f deg/s (%s): turn slower"
+        if g.seen >= 2 * g.back and g.rej_rate * 2 > g.seen and reason != codes.NOT_BETTER:
+            return self._fail(codes.TOO_FAST, "%d of %d samples turned faster than %.0f deg/s (%s): turn slower"
                               % (g.rej_rate, g.seen, self.gate_dps, message))
         return self._fail(reason, message)
 

@@ -42,7 +42,7 @@ BAD_ARGUMENT = "bad_argument"       # also any ValueError a handler raises
 IO_ERROR = "io_error"               # OSError: flash full, file system error
 NO_MEMORY = "no_memory"             # MemoryError
 INTERNAL_ERROR = "internal_error"   # anything else: a firmware bug, named (also a session's reason)
-# Refusals by the commands (device/commands.py, device/app.py):
+# Refusals by the commands (device/commands.py, device/calibration_flow.py):
 BAD_VALUE = "bad_value"             # config set: a value out of range or of the wrong type
 BAD_JSON = "bad_json"               # set-cal: the argument is not JSON
 UNKNOWN_KEY = "unknown_key"         # config get/set: no such key
@@ -61,11 +61,11 @@ DEGENERATE_COVERAGE = "degenerate_coverage"   # the samples leave the ellipsoid 
 NOT_ELLIPSOID = "not_ellipsoid"
 NON_FINITE = "non_finite"
 NOT_BETTER = "not_better"           # a quick re-calibration no better than the one in force
-# The session (device/calibrate.py):
+# The session (device/session.py):
 CLIPPED = "clipped"                 # samples at the ADC's full scale
 TOO_FAST = "too_fast"               # most samples turned faster than the rate gate
 CANCELLED = "cancelled"             # cancel-cal or the button (also the session's state)
-# Acceptance (device/calibrate.py; set-cal runs it too):
+# Acceptance (device/acceptance.py; set-cal runs it too):
 RMS_TOO_HIGH = "rms_too_high"
 POOR_OBSERVABILITY = "poor_observability"
 PREDICTED_ERROR_TOO_HIGH = "predicted_error_too_high"
