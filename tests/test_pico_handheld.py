@@ -62,6 +62,8 @@ def test_emulate_pico_deploys_answers_and_keeps_a_pushed_calibration_over_a_powe
         (tmp_path / "fitted.json").write_text(json.dumps(fitted))
         fluxcal("push-cal", tmp_path / "fitted.json", "--port", port, *SLOW)
         fluxcal("pull-cal", "-o", tmp_path / "before.json", "--port", port, *SLOW)
+        out = fluxcal("monitor", "--seconds", 3, "--port", port, *SLOW)   # survey output, corrected
+        assert "|B|" in out, out
 
         emu.stdin.write("c")                                      # the power switch: off and on
         emu.stdin.flush()
@@ -72,8 +74,6 @@ def test_emulate_pico_deploys_answers_and_keeps_a_pushed_calibration_over_a_powe
         before, after = (json.loads((tmp_path / n).read_text()) for n in ("before.json", "after.json"))
         assert before["matrix"] == after["matrix"] and before["offset"] == after["offset"]
 
-        out = fluxcal("monitor", "--seconds", 3, "--port", port, *SLOW)   # survey output, corrected
-        assert "|B|" in out, out
     finally:
         emu.stdin.write("q")
         emu.stdin.flush()
