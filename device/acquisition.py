@@ -1,6 +1,6 @@
 """The DRDY path: boxcar sums in the interrupt handler, a ring, and its reader.
 
-    acq = Acquisition(board, decim=20, window=5)   # ring of 128 decimated samples
+    acq = Acquisition(board, decim=10, window=2)   # config.py's defaults; ring of 128 decimated samples
     board.attach_drdy(acq.isr, rate, acq.account_gap)
     n = acq.poll(on_sample, limit, on_gap)         # main loop: on_sample(sx, sy, sz, st)
 

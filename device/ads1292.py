@@ -1,6 +1,6 @@
 """TI ADS1292 driver: two chips on one SPI bus, one shared START line.
 
-    acq = Acquisition(board, decim=20, window=5)
+    acq = Acquisition(board, decim=10, window=2)
     adc = ADS1292Pair(board, acq, rate=1000, gains=(1, 1, 1))
     adc.begin()                 # reset, probe IDs, configure, verify, RDATAC, START
     board.attach_drdy(acq.isr, adc.rate, acq.account_gap)

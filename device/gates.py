@@ -17,8 +17,8 @@ gate's ~7 degree turn per sample.
    ~ (w T)^2 / 24) and what the sensor's own bandwidth allows: a first-order
    low-pass of time constant tau = 1 / (2 pi sensor_bandwidth_hz) reads
    |B| (1 - (tau w)^2 / 2) while turning at w (docs/experiments/lag.md), so
-   w <= sqrt(2 lag_tol_nt / B) / tau: 720 deg/s for a 1 kHz Mag649 (the
-   360 deg/s gate stands), 8 deg/s for a 5 Hz Mag648. The stride s spans
+   w <= sqrt(2 lag_tol_nt / B) / tau: 1610 deg/s for a 1 kHz Mag649 at
+   lag_tol_nt 0.5 and B 50,000 nT (the 360 deg/s gate stands), 8 deg/s for a 5 Hz Mag648. The stride s spans
    enough samples that the allowed turn is a few 14-bit steps. The gate works
    in codes: exact for equal scale_x/y/z, tilted by their ratio otherwise.
 2. coverage cap: 6*cells^2 equal-area cells about the centre (the previous

@@ -1,6 +1,6 @@
 """ADC health at run time: named faults from the acquisition's counters, and the chips' supervisor.
 
-    health = Health(acq, rate)
+    health = Health(acq, rate, now_ms)
     problem = health.check(now_ms, diff)   # None, or (code, message) once a fault shows
     health.restart(now_ms)                 # conversions (re)started: judge afresh
 

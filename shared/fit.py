@@ -196,7 +196,8 @@ class EllipsoidFit:
 
         M is symmetric positive definite in the nominal axes (no spurious
         rotation of the frame). Raises FitError with .reason in
-        too_few_samples, degenerate_coverage, not_ellipsoid, non_finite.
+        too_few_samples, degenerate_coverage, not_ellipsoid, non_finite, and for
+        a quick re-calibration (prior, quick) also not_better.
         """
         self._unpack()
         if prior is not None and quick:
