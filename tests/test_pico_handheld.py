@@ -73,6 +73,8 @@ def test_emulate_pico_deploys_answers_and_keeps_a_pushed_calibration_over_a_powe
         fluxcal("pull-cal", "-o", tmp_path / "after.json", "--port", port, *SLOW)
         before, after = (json.loads((tmp_path / n).read_text()) for n in ("before.json", "after.json"))
         assert before["matrix"] == after["matrix"] and before["offset"] == after["offset"]
+        out = fluxcal("monitor", "--seconds", 3, "--port", port, *SLOW)   # and the chips answer again
+        assert "|B|" in out, out
 
     finally:
         emu.stdin.write("q")

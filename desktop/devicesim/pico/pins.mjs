@@ -109,8 +109,10 @@ export class WorldBridge {
   attach(mcu, clock) {
     this.mcu = mcu;
     this.clock = clock;
-    this.waiting = [];
-    this.pending = Buffer.alloc(0);
+    // a request still in flight belongs to the chip that was: its reply comes back in order and
+    // is read past. Dropping the queue instead would pair every later reply with the request
+    // before it (a power cycle then read the chip IDs as 0x00).
+    this.waiting = this.waiting.map(() => () => {});
     this.validUntil = [-1, -1];
     this.fellAt = null;
     this.txn = null;                      // the SPI transaction in progress: { mask, n, local }
