@@ -65,13 +65,14 @@ def bad(tmp_path, name, text):
 
 
 @pytest.mark.parametrize("name, text, fragment", [
-    ("missing.csv", "a,b,c\n1,2,3\n", "no column x,y,z"),
+    ("missing.csv", "a,b,c\n1,2,3\n", "no column for x in the header (a,b,c)"),
     ("empty.csv", "", "empty file"),
     ("header_only.csv", "x,y,z\n", "no data rows"),
     ("few.csv", "x,y,z\n" + "1,2,3\n" * 5, "5 rows, need at least 12"),
     ("nan.csv", "x,y,z\n" + "1,2,3\n" * 20 + "nan,1,2\n", "row 21 is not finite"),
     ("text.csv", "x,y,z\n1,2,three\n", "line 2: expected numbers"),
-    ("flat.csv", "x,y,z\n" + "".join("%d,%d,0\n" % (i, 2 * i) for i in range(50)), "calibration failed (degenerate_coverage)"),
+    ("flat.csv", "x,y,z\n" + "".join("%d,%d,0\n" % (i, 2 * i) for i in range(20000, 70000, 1000)),
+     "calibration failed (degenerate_coverage)"),
 ])
 def test_bad_input_is_one_line_and_exit_1(tmp_path, name, text, fragment):
     proc = fluxcal("fit", bad(tmp_path, name, text), "-o", str(tmp_path / "cal.json"))

@@ -2,7 +2,7 @@
 
     write_figures(folder, h, corrected, t, cal, counts, edge) -> [(file name, title)]
 
-h, corrected: (N, 3) raw and corrected readings, nT; t: (N,) s; cal: a
+h, corrected: (N, 3) raw and corrected readings, nT; t: (N,) s or None (samples numbered); cal: a
 Calibration taking nT; counts: shared/coverage.py's cell counts.
 """
 
@@ -64,13 +64,14 @@ def _magnitude(plt, h, corrected, t, cal, counts, edge):
     fig, (a, b) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
     raw = np.linalg.norm(h, axis=1)
     mag = np.linalg.norm(corrected, axis=1)
-    a.plot(t, raw, lw=0.6, color="tab:red")
+    x = np.arange(len(h)) if t is None else t     # None: a log without a time column
+    a.plot(x, raw, lw=0.6, color="tab:red")
     a.set_ylabel("raw |B| (nT)")
     a.set_title("before: peak-to-peak %.1f nT" % np.ptp(raw))
-    b.plot(t, mag, lw=0.6, color="tab:blue")
+    b.plot(x, mag, lw=0.6, color="tab:blue")
     b.set_ylabel("corrected |B| (nT)")
     b.set_title("after: peak-to-peak %.3f nT, std %.3f nT" % (np.ptp(mag), mag.std()))
-    b.set_xlabel("time (s)")
+    b.set_xlabel("sample number (the log has no time column)" if t is None else "time (s)")
     fig.tight_layout()
     return fig
 

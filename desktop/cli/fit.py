@@ -11,9 +11,10 @@ import os
 import sys
 
 from desktop.cli._errors import CommandError
+from desktop.cli._log_options import add_log_arguments, log_format
 from shared.codes import MAX_PREDICTED_NT, PREDICTED_ERROR_TOO_HIGH
 
-HELP = "fit a calibration to raw readings (CSV x,y,z in nT, or a capture .npz)"
+HELP = "fit a calibration to raw readings (a magnetometer log: CSV or text columns, any unit; or a capture .npz)"
 
 # tau_int above this (samples) names the sensor's lag, not the coverage, as the cause
 CORRELATED_TAU = 3.0
@@ -22,7 +23,8 @@ CORRELATED_TAU = 3.0
 def add_arguments(p):
     from desktop.methods import METHODS     # numpy, so here: `import desktop.cli` stays light
 
-    p.add_argument("raw", help="CSV with a header containing x,y,z (nT), or a simulator .npz; in time order")
+    p.add_argument("raw", help="magnetometer log (CSV or whitespace-separated, in time order; see --columns, --unit) "
+                               "or a capture .npz")
     p.add_argument("-o", "--output", required=True, help="calibration JSON to write")
     p.add_argument("--method", choices=METHODS, default="streaming",
                    help="streaming (the device's own fit, default), algebraic, mle or paper-nn")
@@ -36,6 +38,7 @@ def add_arguments(p):
                         "(default %(default)g, the firmware's max_predicted_nt)")
     p.add_argument("--accept-anyway", action="store_true",
                    help="write the calibration even when its predicted error exceeds --max-predicted (a warning)")
+    add_log_arguments(p)
 
 
 def _load_prior(path):
@@ -69,7 +72,7 @@ def run(args):
     if not args.max_predicted > 0:
         raise CommandError("--max-predicted must be a positive number of nT")
     prior = _load_prior(args.prior) if args.prior is not None else None
-    h = read_raw(args.raw)
+    h = read_raw(args.raw, log_format(args))
     # With --accept-anyway the core's own refusal (predicted > 1 % of the field) is lifted too.
     max_error = float("inf") if args.accept_anyway else None
     try:

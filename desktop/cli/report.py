@@ -11,6 +11,7 @@ most FIT_MAX samples spread over the capture).
 import os
 
 from desktop.cli._errors import CommandError
+from desktop.cli._log_options import add_log_arguments, log_format
 
 HELP = "PNG plots and a markdown summary of a capture: raw ellipsoid vs corrected sphere, |B|, coverage, residuals"
 FIT_MAX = 20000          # samples the report's own fit takes (the streaming fit is pure Python)
@@ -21,20 +22,22 @@ CELLS = 4                # cells per cube-face edge: the firmware's default (96 
 def add_arguments(p):
     from desktop.methods import METHODS     # numpy, so here: `import desktop.cli` stays light
 
-    p.add_argument("capture", help="capture .npz (fluxcal capture or simulate) or CSV with x,y,z in nT")
+    p.add_argument("capture", help="capture .npz (fluxcal capture or simulate) or a magnetometer log "
+                                   "(CSV or whitespace-separated; see --columns, --unit, --time-column)")
     p.add_argument("--cal", metavar="CAL.json", help="calibration (fluxcal fit or pull-cal); default: fit here")
     p.add_argument("--method", choices=METHODS, default="streaming", help="the fit without --cal")
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder for summary.md and the PNGs")
+    add_log_arguments(p, time=True)
 
 
 def run(args):
     import numpy as np
 
     from desktop.cli._report_figures import write_figures
-    from desktop.formats.readings import read_raw
+    from desktop.formats.readings import read_log
     from desktop.methods import correct_array
 
-    h = read_raw(args.capture)
+    h, t_log = read_log(args.capture, log_format(args))
     capture = _capture_arrays(args.capture)
     cal, source = _calibration(args, h, capture)
     try:
@@ -42,13 +45,16 @@ def run(args):
     except OSError as exc:
         raise CommandError("%s: %s" % (args.output, exc.strerror or exc))
     corrected = correct_array(cal, h)
-    t = capture["t"] if capture is not None and len(capture.get("t", ())) == len(h) else np.arange(len(h), dtype=float)
+    if capture is not None and len(capture.get("t", ())) == len(h):
+        t = capture["t"]
+    else:    # a log's time column, or (None) the figures number the samples
+        t = t_log
     counts = _coverage(corrected)
     figures = write_figures(args.output, h, corrected, t, cal, counts, CELLS)
     summary = os.path.join(args.output, "summary.md")
     try:
         with open(summary, "w") as fh:
-            fh.write(_summary(args.capture, h, corrected, t, cal, source, counts, figures, capture is not None))
+            fh.write(_summary(args.capture, h, corrected, t, cal, source, counts, figures, t is not None))
     except OSError as exc:
         raise CommandError("%s: %s" % (summary, exc.strerror or exc))
     resid = np.linalg.norm(corrected, axis=1) - cal.field
