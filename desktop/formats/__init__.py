@@ -1,6 +1,7 @@
 """File formats: what fluxcal reads and writes, and nothing else.
 
-- readings.py: raw readings in nT (CSV with x,y,z, or a capture), corrected CSV.
+- readings.py: raw readings in nT (a magnetometer log in its unit, or a capture), corrected CSV.
+- logtext.py: a log's text split into columns (CSV or whitespace, header or none).
 - capture.py: capture files (.npz) of the two ADS1292's codes, as `fluxcal simulate` writes them.
 - calibration.py: calibration records (JSON), as `fluxcal fit` writes them.
 
