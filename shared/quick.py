@@ -169,11 +169,11 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA
     d["stale_rms"] = stale_rms
     limit = max_error if max_error is not None else MAX_ERROR_SHARE * float(cal.field)
     if d["predicted_error"] > limit:
-        raise FitError(DEGENERATE_COVERAGE, "predicted calibration error %.3g exceeds %.3g: rotate through more orientations"
+        raise FitError(DEGENERATE_COVERAGE, "predicted full-sphere error %.3g nT exceeds %.3g nT: rotate through more orientations"
                        % (d["predicted_error"], limit))
     stale_error = math.sqrt(prev_error ** 2 + max(0.0, stale_rms ** 2 - d["rms"] ** 2))
     d["stale_error"] = stale_error
     if refuse_worse and d["predicted_error"] >= stale_error:
-        raise FitError(NOT_BETTER, "predicted error %.3g is not below the previous calibration's %.3g on these samples: it stays"
+        raise FitError(NOT_BETTER, "predicted full-sphere error %.3g nT is not below the previous calibration's %.3g nT on these samples: it stays"
                        % (d["predicted_error"], stale_error))
     return cal

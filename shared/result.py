@@ -108,10 +108,10 @@ def finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_err
     if not linalg.all_finite(flat):
         raise FitError(NON_FINITE, "calibration is not finite")
     if float(rms) > MAX_MISFIT * float(field_out):
-        raise FitError(NOT_ELLIPSOID, "samples do not lie on an ellipsoid: residual %.3g rms is %.0f %% of the field" % (float(rms), 100.0 * float(rms) / float(field_out)))
+        raise FitError(NOT_ELLIPSOID, "samples do not lie on an ellipsoid: residual %.3g nT rms is %.0f %% of the field" % (float(rms), 100.0 * float(rms) / float(field_out)))
     limit = max_error if max_error is not None else MAX_ERROR_SHARE * float(field_out)
     if float(predicted) > limit:
-        raise FitError(DEGENERATE_COVERAGE, "predicted calibration error %.3g exceeds %.3g: rotate through more orientations" % (float(predicted), limit))
+        raise FitError(DEGENERATE_COVERAGE, "predicted full-sphere error %.3g nT exceeds %.3g nT: rotate through more orientations" % (float(predicted), limit))
     diagnostics = {
         "n": pb.n,
         "rms": float(rms),

@@ -18,7 +18,7 @@ from desktop.sim.field import EARTH_NT
 from desktop.sim.points import directions
 from desktop.sim.sensor import Sensor
 
-PRINTED = re.compile(r"predicted full-sphere calibration error ([0-9.]+) nT \(white-noise estimate ([0-9.]+) nT")
+PRINTED = re.compile(r"predicted full-sphere error ([0-9.]+) nT \(([0-9.]+) nT if the residuals were independent")
 # the printed figures have three decimals: half a unit of the last is the rounding,
 # a whole unit puts the limit on a known side of the unrounded value
 DIGIT = 1e-3
@@ -55,7 +55,7 @@ def test_refusal_compares_the_printed_predicted_error(correlated_capture, tmp_pa
     between = (honest * white) ** 0.5
     code, out, err = fit(capsys, correlated_capture, tmp_path / "between.json", between)
     assert code == 1 and out == "" and not (tmp_path / "between.json").exists()
-    assert ("predicted error %.2f nT > %.2f nT" % (honest, between)) in err, err
+    assert ("predicted full-sphere error %.2f nT > %.2f nT (--max-predicted)" % (honest, between)) in err, err
 
     code, out, err = fit(capsys, correlated_capture, tmp_path / "below.json", honest - DIGIT)
     assert code == 1 and not (tmp_path / "below.json").exists(), out

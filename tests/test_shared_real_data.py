@@ -50,4 +50,4 @@ def test_aircraft_fluxgate_cap_is_refused_with_a_reason():
     with pytest.raises(FitError) as info:
         fit_array(d[:, :3], field=float(np.mean(d[:, 3])))
     assert info.value.reason == "degenerate_coverage"
-    assert "predicted calibration error" in info.value.message
+    assert "predicted full-sphere error" in info.value.message and " nT exceeds " in info.value.message

@@ -33,6 +33,11 @@ def calibration_age(cal, status=None):
     return None
 
 
+def predicted_text(nt):
+    """The predicted full-sphere error as every command prints it."""
+    return "predicted full-sphere error %.3f nT" % nt
+
+
 def _figure(d, key, fmt):
     v = d.get(key)
     return None if v is None else fmt % v
@@ -42,7 +47,7 @@ def fit_figures(d):
     """One line of a fit's figures from a calibration's diagnostics or a `cal` result event."""
     parts = [_figure(d, "field", "field %.2f nT"),
              _figure(d, "rms", "residual rms %.3f nT"),
-             _figure(d, "predicted_error", "predicted error %.3f nT"),
+             None if d.get("predicted_error") is None else predicted_text(d["predicted_error"]),
              _figure(d, "observability", "observability %.3f"),
              _figure(d, "n", "%d samples")]
     if d.get("coverage") is not None:

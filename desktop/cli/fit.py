@@ -1,10 +1,13 @@
 """fluxcal fit RAW -o CAL.json [--prior OLD.json] [--max-predicted NT | --accept-anyway]
 
-The written calibration's predicted full-sphere error is the honest one of
-desktop.methods.residuals (the core's white-noise value inflated by the
-residuals' correlation in time, with a systematic floor); a calibration
-predicted worse than --max-predicted is refused like the firmware refuses it
-(reason predicted_error_too_high, device/acceptance.py), unless --accept-anyway.
+The written calibration's predicted full-sphere error is desktop.methods.refusal's
+predicted_error, the one `fluxcal report` gives too (the core's white-noise value
+widened by the residuals' correlation in time, with a systematic floor); a
+calibration predicted worse than --max-predicted is refused like the firmware
+refuses it (reason predicted_error_too_high, device/acceptance.py), unless
+--accept-anyway. A fit on samples that cover too little (degenerate_coverage) or
+lie on no ellipsoid (not_ellipsoid) is never written. Each refusal names its cause
+(refusal.cause).
 """
 
 import os
@@ -12,12 +15,10 @@ import sys
 
 from desktop.cli._errors import CommandError
 from desktop.cli._log_options import add_log_arguments, log_format
-from shared.codes import MAX_PREDICTED_NT, PREDICTED_ERROR_TOO_HIGH
+from shared.codes import MAX_PREDICTED_NT
 
 HELP = "fit a calibration to raw readings (a magnetometer log: CSV or text columns, any unit; or a capture .npz)"
 
-# tau_int above this (samples) names the sensor's lag, not the coverage, as the cause
-CORRELATED_TAU = 3.0
 
 
 def add_arguments(p):
@@ -37,7 +38,8 @@ def add_arguments(p):
                    help="refuse (exit 1, nothing written) when the predicted full-sphere error exceeds this, nT "
                         "(default %(default)g, the firmware's max_predicted_nt)")
     p.add_argument("--accept-anyway", action="store_true",
-                   help="write the calibration even when its predicted error exceeds --max-predicted (a warning)")
+                   help="write the calibration even when its predicted error exceeds --max-predicted (a warning); "
+                        "never when the samples cover too little or lie on no ellipsoid")
     add_log_arguments(p)
 
 
@@ -57,10 +59,11 @@ def _load_prior(path):
 
 
 def run(args):
+    from desktop.cli._show import predicted_text
     from desktop.formats.calibration import save_calibration
     from desktop.formats.readings import read_raw
     from desktop.methods import fit_array
-    from desktop.methods.residuals import honest_error
+    from desktop.methods.refusal import predicted_error, problem
     from shared.fit import FitError
 
     if args.field is not None and not args.field > 0:
@@ -73,24 +76,21 @@ def run(args):
         raise CommandError("--max-predicted must be a positive number of nT")
     prior = _load_prior(args.prior) if args.prior is not None else None
     h = read_raw(args.raw, log_format(args))
-    # With --accept-anyway the core's own refusal (predicted > 1 % of the field) is lifted too.
-    max_error = float("inf") if args.accept_anyway else None
     try:
-        cal = fit_array(h, args.method, field=args.field, float32=args.float32, prior=prior, max_error=max_error)
+        # no limit in the core: the limits are checked below on the one predicted error, with their cause
+        cal = fit_array(h, args.method, field=args.field, float32=args.float32, prior=prior, max_error=float("inf"))
     except FitError as exc:
         raise CommandError("calibration failed (%s): %s" % (exc.reason, exc.message))
     except (ValueError, ArithmeticError) as exc:
         raise CommandError("calibration failed (%s): %s" % (args.method, exc))
-    honest = honest_error(cal, h, pinned=args.field is not None or prior is not None)
+    honest = predicted_error(cal, h, pinned=args.field is not None or prior is not None)
     d = cal.diagnostics
     predicted = honest["predicted_error"]
-    if predicted is not None:
-        d.update(predicted_error=predicted, predicted_error_white=honest["predicted_error_white"],
-                 tau_int=honest["tau_int"], residual_white_rms=honest["white"],
-                 systematic_floor=honest["applied_floor"])
-    refused = predicted is not None and predicted > args.max_predicted
+    refused = problem(cal, h, honest, args.max_predicted)
+    if refused and not refused[2]:
+        raise CommandError("calibration failed (%s): %s" % refused[:2])
     if refused and not args.accept_anyway:
-        raise CommandError("calibration refused (%s): %s" % (PREDICTED_ERROR_TOO_HIGH, _why(honest, args.max_predicted)))
+        raise CommandError("calibration refused (%s): %s" % refused[:2])
     cal.meta["method"] = args.method
     cal.meta["source"] = args.raw
     temp = _mean_die_temperature(args.raw)
@@ -103,27 +103,22 @@ def run(args):
     if prior is not None:
         print("prior %s: %s" % (args.prior, "mode %s" % d["mode"] if "mode" in d else "used as a weak prior (no mode reported)"))
     if predicted is not None:
-        floor = honest["applied_floor"]
-        print("predicted full-sphere calibration error %.3f nT (white-noise estimate %.3f nT; residuals correlated "
-              "over tau_int %.1f samples%s), observability %.3f"
-              % (predicted, honest["predicted_error_white"], honest["tau_int"],
-                 "; systematic floor %.3f nT" % floor if floor else "", d["observability"]))
+        print("%s (%s), observability %.3f" % (predicted_text(predicted), _widening(honest), d["observability"]))
     else:
         print("no predicted error for the %s method: not checked against --max-predicted" % args.method)
     if refused:
-        print("fluxcal: warning: %s: %s; written anyway (--accept-anyway)" % (PREDICTED_ERROR_TOO_HIGH, _why(honest, args.max_predicted)),
-              file=sys.stderr)
+        print("fluxcal: warning: %s: %s; written anyway (--accept-anyway)" % refused[:2], file=sys.stderr)
     return 0
 
 
-def _why(honest, limit):
-    """One line: the predicted error, the limit and what to do about it."""
-    if honest["tau_int"] > CORRELATED_TAU:
-        hint = ("the residuals are correlated over %.0f samples (%.0f nT rms, white %.2f nT): the sensor lags "
-                "the rotation or the field moved, turn more slowly" % (honest["tau_int"], honest["rms"], honest["white"]))
-    else:
-        hint = "cover more orientations"
-    return "predicted error %.2f nT > %.2f nT: %s" % (honest["predicted_error"], limit, hint)
+def _widening(honest):
+    """How the predicted error came from the core's: the residuals' correlation, the floor."""
+    text = "%.3f nT if the residuals were independent" % honest["predicted_error_white"]
+    if honest["tau_int"] > 1.0:
+        text += "; they follow each other over %.1f samples" % honest["tau_int"]
+    if honest["applied_floor"]:
+        text += "; systematic floor %.3f nT" % honest["applied_floor"]
+    return text
 
 
 def _mean_die_temperature(path):

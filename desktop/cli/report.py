@@ -4,8 +4,8 @@ Writes DIR/summary.md and four PNGs (_report_figures.py): the raw readings on
 their ellipsoid beside the corrected ones on their sphere, |B| before and
 after over time, the coverage of the sphere (shared/coverage.py's cells) and
 the histogram of the residuals |h_c| - field. Without --cal the capture is
-fitted here first (--method, the device's own streaming fit by default, on at
-most FIT_MAX samples spread over the capture).
+fitted here first (--method, the device's own streaming fit by default) as
+`fluxcal fit` fits it, with the same predicted error (desktop.methods.refusal).
 """
 
 import os
@@ -14,7 +14,6 @@ from desktop.cli._errors import CommandError
 from desktop.cli._log_options import add_log_arguments, log_format
 
 HELP = "PNG plots and a markdown summary of a capture: raw ellipsoid vs corrected sphere, |B|, coverage, residuals"
-FIT_MAX = 20000          # samples the report's own fit takes (the streaming fit is pure Python)
 COVERAGE_MAX = 50000     # samples counted into the coverage cells
 CELLS = 4                # cells per cube-face edge: the firmware's default (96 cells)
 
@@ -74,6 +73,7 @@ def _calibration(args, h, capture):
     """(Calibration taking nT, where it came from)."""
     from desktop.formats.calibration import load_calibration, takes_codes, to_nT_units
     from desktop.methods import fit_array
+    from desktop.methods.refusal import predicted_error, problem
     from shared.fit import FitError
 
     if args.cal:
@@ -84,14 +84,17 @@ def _calibration(args, h, capture):
                                    % (args.cal, args.capture))
             cal = to_nT_units(cal, capture["nT_per_code"])
         return cal, "`%s`" % args.cal
-    step = max(1, len(h) // FIT_MAX)
     try:
-        cal = fit_array(h[::step], args.method)
+        cal = fit_array(h, args.method, max_error=float("inf"))     # the limit: refusal.problem, with its cause
     except FitError as exc:
         raise CommandError("%s: the fit failed (%s): %s" % (args.capture, exc.reason, exc.message))
     except (ValueError, ArithmeticError) as exc:
         raise CommandError("%s: the fit failed (%s): %s" % (args.capture, args.method, exc))
-    return cal, "fitted here (%s, %d of %d samples)" % (args.method, len(h[::step]), len(h))
+    # the report shows any predicted error, but not a fit the samples do not determine
+    refused = problem(cal, h, predicted_error(cal, h, pinned=False), float("inf"))
+    if refused and not refused[2]:
+        raise CommandError("%s: the fit failed (%s): %s" % ((args.capture,) + refused[:2]))
+    return cal, "fitted here (%s, %d samples)" % (args.method, len(h))
 
 
 def _coverage(corrected):
