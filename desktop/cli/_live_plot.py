@@ -5,15 +5,32 @@ counted from the directions of the corrected field (raw: of the readings,
 whose offset is small beside the Earth's field).
 """
 
+import os
 import time
 
 REDRAW_S = 0.5
+SAVE_S = 2.0        # a file is rewritten less often than a window is redrawn
 MAX_POINTS = 4000
 
 
+# matplotlib's backends that draw into files only: what it falls back on without a display
+FILE_BACKENDS = {"agg", "cairo", "pdf", "pgf", "ps", "svg", "template"}
+
+
+class NoDisplay(Exception):
+    """A live window was asked for where matplotlib cannot open one."""
+
+
 class LivePlot:
-    def __init__(self, cells, scale, kind):
+    """A window redrawn as samples come, or (path) a PNG rewritten as they come and at the end."""
+
+    def __init__(self, cells, scale, kind, path=None):
+        import matplotlib
+        if path is not None:
+            matplotlib.use("agg")      # a file needs no display, and must not open a window
         import matplotlib.pyplot as plt
+        if path is None and plt.get_backend().lower() in FILE_BACKENDS:
+            raise NoDisplay("matplotlib has no display to open a window on (backend %s)" % plt.get_backend())
 
         from desktop.cli._show import cell_directions
         from shared.coverage import Coverage
@@ -24,7 +41,9 @@ class LivePlot:
         self.cells = cell_directions(cells)
         self.t, self.b, self.points = [], [], []
         self.next_draw = 0.0
-        plt.ion()
+        self.path = path
+        if path is None:
+            plt.ion()
         self.fig = plt.figure("fluxcal monitor", figsize=(13, 4.5))
         self.ax_b = self.fig.add_subplot(1, 3, 1)
         self.ax_cloud = self.fig.add_subplot(1, 3, 2, projection="3d")
@@ -49,10 +68,25 @@ class LivePlot:
                 self.coverage.add_to(self.coverage.cell(*d))
         now = time.monotonic()
         if now >= self.next_draw:
-            self.next_draw = now + REDRAW_S
+            self.next_draw = now + (REDRAW_S if self.path is None else SAVE_S)
             self._draw()
-            self.plt.pause(0.001)
+            if self.path is None:
+                self.plt.pause(0.001)
+            else:
+                self.save()
         return not self.closed
+
+    def save(self):
+        """The figure as it is now into path (through a .tmp: a viewer never reads half a PNG)."""
+        tmp = self.path + ".tmp.png"
+        self.fig.savefig(tmp, dpi=90)
+        os.replace(tmp, self.path)
+
+    def finish(self):
+        """The last picture: into the file (a window stays as it is)."""
+        if self.path is not None:
+            self._draw()
+            self.save()
 
     def _draw(self):
         ax = self.ax_b

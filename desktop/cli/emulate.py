@@ -55,6 +55,7 @@ def run(args):
 
     from desktop.cli._errors import CommandError
     from desktop.devicesim.virtual_handheld import InProcessHandheld, VirtualHandheld
+    from desktop.link.ports import announce_emulator
 
     script = read_script(args.script) if args.script else []
     behind = []
@@ -92,9 +93,11 @@ def run(args):
         raise SystemExit(128 + signum)
     for sig in (signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, _terminated)
+    announced = None
     try:
         hh.start()
         print("fluxcal emulate: virtual handheld (%s, %s) on %s" % (args.runtime, args.sensor, hh.port), flush=True)
+        announced = announce_emulator(hh.port, args.runtime)    # `fluxcal status` without --port finds it
         if args.runtime != "cpython" and not args.bare:
             _deploy_if_empty(hh, flash)
             if args.runtime == "pico":    # its boot takes wall seconds: ready when the firmware answers
@@ -119,6 +122,8 @@ def run(args):
                 _status(hh, now)
             done.wait(0.05)
     finally:
+        if announced is not None:
+            os.remove(announced)
         keys.stop()
         hh.close()
         if tmp is not None:

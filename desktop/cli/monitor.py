@@ -1,4 +1,4 @@
-"""fluxcal monitor [--raw] [--plot] [--seconds S]: live |B| from the handheld with rolling statistics.
+"""fluxcal monitor [--raw] [--plot [FILE.png]] [--seconds S]: live |B| from the handheld with rolling statistics.
 
 Corrected (default): the firmware's `data` stream, |B| the mean of |h_c| over
 each output block (rotation invariant). --raw: the `raw` stream, |B| of the
@@ -9,6 +9,7 @@ the whole run's figures when it ends (--seconds, Ctrl-C, or the plot closed).
 
 import collections
 import math
+import os
 import sys
 import time
 
@@ -22,8 +23,9 @@ HELP = "live |B| from the handheld: rolling peak-to-peak and standard deviation 
 
 def add_arguments(p):
     p.add_argument("--raw", action="store_true", help="uncorrected readings (the raw stream)")
-    p.add_argument("--plot", action="store_true",
-                   help="a live plot: |B| over time, the raw point cloud and the coverage of the sphere")
+    p.add_argument("--plot", nargs="?", const=True, default=None, metavar="FILE.png",
+                   help="a live plot: |B| over time, the raw point cloud and the coverage of the sphere, in a"
+                        " window, or (FILE.png) rewritten into that file every few seconds and at the end")
     p.add_argument("--seconds", type=float, default=None, metavar="S", help="stop after S seconds (default: Ctrl-C)")
     p.add_argument("--window", type=float, default=10.0, metavar="S",
                    help="rolling window of the statistics, seconds (default 10)")
@@ -66,6 +68,9 @@ def run(args):
         raise CommandError("--seconds must be positive")
     if not args.window > 0:
         raise CommandError("--window must be positive")
+    folder = os.path.dirname(os.path.abspath(args.plot)) if isinstance(args.plot, str) else None
+    if folder is not None and not os.path.isdir(folder):
+        raise CommandError("--plot %s: there is no folder %s" % (args.plot, folder))
     name = codes.EV_RAW if args.raw else codes.EV_DATA
     with connected(args) as dev:
         cfg = device_config(dev)
@@ -73,8 +78,13 @@ def run(args):
         stream_before = dev.ask("status")["stream"]
         plot = None
         if args.plot:
-            from desktop.cli._live_plot import LivePlot
-            plot = LivePlot(cfg["cells"], scale, "raw" if args.raw else "corrected")
+            from desktop.cli._live_plot import LivePlot, NoDisplay
+            try:
+                plot = LivePlot(cfg["cells"], scale, "raw" if args.raw else "corrected",
+                                path=None if args.plot is True else args.plot)
+            except NoDisplay as exc:
+                raise CommandError("monitor --plot: %s; write the plot into a file instead: --plot FILE.png"
+                                   % exc) from None
         stats = Rolling(args.window)
         view = _TerminalView(args.window) if sys.stdout.isatty() else _Lines(args.window)
         dev.ask("stream raw" if args.raw else "stream corrected")
@@ -94,6 +104,8 @@ def run(args):
             pass
         finally:
             quietly(dev, "stream %s" % stream_before)
+            if plot is not None:
+                plot.finish()
     if not stats.n:
         raise CommandError("no %s from the device" % name)
     mean, ptp, std = stats.run_figures()

@@ -14,6 +14,7 @@ def add_arguments(p):
 
 def run(args):
     from desktop.cli._show import SOURCES, calibration_lines
+    from desktop.link.ports import emulator_on
 
     with connected(args) as dev:
         st = dev.ask("status")
@@ -22,8 +23,11 @@ def run(args):
         print(json.dumps({"port": dev.port, "version": dev.info, "status": st, "cal": cal}, indent=1))
         return 0
     v = dev.info
+    emulator = emulator_on(dev.port)
+    where = dev.port if emulator is None else "%s, a virtual handheld (fluxcal emulate, pid %d)" % (
+        dev.port, emulator["pid"])
     print("fluxcal firmware %s on %s: protocol %s, runtime %s (%s)"
-          % (v.get("fw"), dev.port, v.get("proto"), v.get("runtime"), v.get("impl")))
+          % (v.get("fw"), where, v.get("proto"), v.get("runtime"), v.get("impl")))
     state = "%s, up %.1f s, stream %s" % (st.get("state"), st.get("uptime_ms", 0) / 1000.0, st.get("stream"))
     if st.get("temp") is not None:
         state += ", ADC die %.2f C" % st["temp"]

