@@ -26,9 +26,11 @@ import io
 import os
 import sys
 import tokenize
+import warnings
 
 from setuptools import Distribution, setup
 from setuptools.command.build_py import build_py
+from setuptools.warnings import InformationOnly
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 LAPTOP = ("desktop", "shared")          # the laptop's packages, renamed fluxcal.NAME
@@ -159,7 +161,10 @@ class WheelDistribution(Distribution):
 if "editable_wheel" in sys.argv:
     # an editable install (pip install -e .): the source tree's names, and fluxcal a namespace
     # over the checkout, so that the entry point fluxcal.desktop.cli is desktop/cli (whose own
-    # imports then load desktop.*, as in the tree)
+    # imports then load desktop.*, as in the tree). setuptools' notice on such installs warns of
+    # a folder in the working directory named as the package: the checkout has none (fluxcal/
+    # exists in the wheel only), so `make demo` and `make test` do not print it.
+    warnings.filterwarnings("ignore", category=InformationOnly)
     setup(packages=["desktop", "shared", "device", "fluxcal"], package_dir={"fluxcal": "."})
 else:
     setup(packages=[], distclass=WheelDistribution, cmdclass={"build_py": BuildFluxcal})
