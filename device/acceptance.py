@@ -7,8 +7,8 @@ or ADC codes (set-cal, k = scale). The reasons are stable codes (docs/protocol.m
 the message says what to do. In order: the fit's residual (max_rms_nt), how well
 the rotation observed the parameters (min_observability; a quick re-calibration is
 exempt, it takes its shape from the calibration before), the predicted error
-(max_predicted_nt; with correlated residuals the message says the sensor lags or the
-field moves), the fitted field against field_nt, and each axis' gain against the
+(max_predicted_nt; the message tells a sensor that lags the turn from a field that moves
+by the residuals' correlation with the turn rate), the fitted field against field_nt, and each axis' gain against the
 configured front end.
 """
 
@@ -19,6 +19,23 @@ def _number(d, key):
     # diagnostics may come from a set-cal request: only a number counts
     v = d.get(key)
     return v if isinstance(v, (int, float)) and not isinstance(v, bool) else None
+
+
+def _cause(d):
+    """Why the predicted error is high, and what to do about it (desktop/methods/refusal.py alike)."""
+    rho = _number(d, "residual_rho")
+    if rho is None or rho <= 0.5:
+        return "the residuals are independent: turn for longer, through more orientations"
+    turn = _number(d, "residual_turn_corr")
+    if turn is None:
+        return ("the residuals follow each other (rho %.2f): the sensor lags the turn (check sensor_bandwidth_hz) or "
+                "the field moves" % rho)
+    if turn < -0.3:
+        # a lag reads |h| short by B (tau w)^2 / 2: the residuals fall as the turn speeds up
+        return ("the residuals follow each other (rho %.2f) and fall as the turn speeds up (%.2f): the sensor lags the "
+                "turn (check sensor_bandwidth_hz): turn slower" % (rho, turn))
+    return ("the residuals follow each other (rho %.2f) but not the turn rate (%.2f): the field moves, or iron moves "
+            "with the sensor; turning slower will not help" % (rho, turn))
 
 
 def check_calibration(cal, cfg, k):
@@ -35,13 +52,8 @@ def check_calibration(cal, cfg, k):
                 % (obs, cfg["min_observability"]))
     pe = _number(d, "predicted_error")
     if pe is not None and pe > cfg["max_predicted_nt"]:
-        rho = _number(d, "residual_rho")
-        if rho is not None and rho > 0.5:
-            return (codes.PREDICTED_ERROR_TOO_HIGH, "predicted error %.2f nT > %.2f nT: the residuals follow each other"
-                    " (rho %.2f): the sensor lags the turn (check sensor_bandwidth_hz) or the field moves: turn slower"
-                    % (pe, cfg["max_predicted_nt"], rho))
-        return (codes.PREDICTED_ERROR_TOO_HIGH, "predicted error %.2f nT > %.2f nT: cover more orientations"
-                % (pe, cfg["max_predicted_nt"]))
+        return (codes.PREDICTED_ERROR_TOO_HIGH, "predicted full-sphere error %.2f nT > %.2f nT (max_predicted_nt): %s"
+                % (pe, cfg["max_predicted_nt"], _cause(d)))
     f0 = cfg["field_nt"]
     if f0:
         if abs(cal.field / f0 - 1.0) > cfg["field_tol"]:

@@ -84,7 +84,8 @@ class Session:
 
     def residual_rho(self, cal):
         """Lag-1 correlation of the residuals |h_c| - F of consecutive accepted samples among
-        the last HIST (the gates' removal history), against the final fit; None with too few pairs.
+        the last HIST (the gates' removal history), against the final fit, and the pairs'
+        correlation with the squared turn between them; (None, pairs, None) with too few pairs.
 
         The fit's predicted error assumes independent residuals. A sensor that lags the
         turn (a bandwidth set too high for it), a field that wanders or a flexing mount
@@ -93,6 +94,11 @@ class Session:
         widens the predicted error by sqrt((1 + rho) / (1 - rho)). Against the final fit,
         not a provisional one: a provisional fit's own error, smooth in orientation, would
         read as correlation when the turn is slow.
+
+        Which of those it is: a sensor that lags reads |h| short by B (tau w)^2 / 2 at a turn
+        rate w, so its residuals fall as the turn between samples grows (|dv|^2 / |v|^2 ~ w^2,
+        in codes: the gains' few percent do not change the sign); a wandering field or
+        iron moving with the sensor leaves them unrelated to the turn.
         """
         g = self.gates
         h = g.hist
@@ -102,6 +108,8 @@ class Session:
         prev_r = 0.0
         pairs = 0
         s = ss = s1 = 0.0
+        t = tt = st = 0.0    # the squared turn t of each pair, and its products with the pair's residual
+        pj = 0
         for k in range(n):
             j = ((first + k) % HIST) * 5
             r = cal.magnitude(h[j], h[j + 1], h[j + 2]) - cal.field
@@ -111,15 +119,27 @@ class Session:
                 s += r + prev_r
                 ss += r * r + prev_r * prev_r
                 s1 += r * prev_r
+                # in floats: the codes' squares would be big integers (or overflow) on a board
+                x0, y0, z0 = float(h[j]), float(h[j + 1]), float(h[j + 2])
+                dx, dy, dz = x0 - h[pj], y0 - h[pj + 1], z0 - h[pj + 2]
+                turn = (dx * dx + dy * dy + dz * dz) / (x0 * x0 + y0 * y0 + z0 * z0 or 1.0)
+                t += turn
+                tt += turn * turn
+                st += turn * (r + prev_r)
             prev_i = i
             prev_r = r
+            pj = j
         if pairs < _MIN_PAIRS:
-            return None, pairs
+            return None, pairs, None
         m = s / (2 * pairs)
         var = ss / (2 * pairs) - m * m
         if not var > 0.0:
-            return None, pairs
-        return (s1 / pairs - m * m) / var, pairs
+            return None, pairs, None
+        # the pair's mean residual (its variance ~ var) against its turn
+        tm = t / pairs
+        tvar = tt / pairs - tm * tm
+        rate = (st / (2 * pairs) - m * tm) / math.sqrt(var * tvar) if tvar > 0.0 else None
+        return (s1 / pairs - m * m) / var, pairs, rate
 
     def add_temperature(self, celsius):
         self.temp_sum += celsius
@@ -215,7 +235,7 @@ class Session:
                 # residuals inflate: solved again with the samples counted as independent
                 # (scaling the ratios down can only keep a smaller model, so the common-gain
                 # result stands as it is)
-                rho, pairs = self.residual_rho(cal)
+                rho, pairs, _ = self.residual_rho(cal)
                 if rho is not None and rho > 2.0 / math.sqrt(pairs):
                     rho = min(rho, _MAX_RHO)
                     cal = self._solve(final=True, independent=(1.0 - rho) / (1.0 + rho))
@@ -236,10 +256,12 @@ class Session:
     def _widen(self, cal):
         # residuals correlated beyond chance (rho > 2 / sqrt(pairs)): fewer independent samples
         d = cal.diagnostics
-        rho, pairs = self.residual_rho(cal)
+        rho, pairs, rate = self.residual_rho(cal)
         if rho is None:
             return
         d["residual_rho"] = round(rho, 4)
+        if rate is not None:
+            d["residual_turn_corr"] = round(rate, 3)
         if rho > 2.0 / math.sqrt(pairs) and d.get("predicted_error") is not None:
             rho = min(rho, _MAX_RHO)
             d["predicted_error_white"] = d["predicted_error"]

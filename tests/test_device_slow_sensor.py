@@ -5,7 +5,9 @@ default lag_tol_nt of 0.5 nT the gate is ~8 deg/s, not the Mag649's 360.
 - turned by hand at the usual ~1 rev/s: nearly every sample is refused, the LED shows
   SLOW_DOWN (mostly on), status says slow_down, and the calibration fails as too_fast;
 - turned at ~0.02 rev/s for five minutes: calibrated, with a full-sphere error within what
-  its own predicted error allows (one draw of an error whose standard deviation it is).
+  its own predicted error allows (one draw of an error whose standard deviation it is);
+- its lag left in the residuals (the gate not told of the bandwidth) is refused as a lag, and a
+  field that moves, whose residuals are as correlated, is not.
 """
 
 import numpy as np
@@ -16,9 +18,9 @@ from desktop.devicesim.world import make_world
 from shared import codes
 
 
-def _session(tmp_path, rot_rate, seconds, **cfg):
-    w = make_world(serial=None, sensor="mag648", motion="hand", rot_rate=rot_rate, seconds=seconds + 3.0,
-                   seed=2, motion_seed=3, rate=1000)
+def _session(tmp_path, rot_rate, seconds, sensor="mag648", drift=0.0, **cfg):
+    w = make_world(serial=None, sensor=sensor, motion="hand", rot_rate=rot_rate, seconds=seconds + 3.0,
+                   seed=2, motion_seed=3, rate=1000, drift=drift)
     write_config(str(tmp_path), **dict(handheld_config(w.scenario), max_cal_s=int(seconds), **cfg))
     dev = start_device(w, str(tmp_path), kind="cpython")
     dev.run_until(0.5)
@@ -87,6 +89,23 @@ def test_a_lag_the_gate_was_not_told_about_is_seen_in_the_residuals(tmp_path):
         end = [e for e in events(w, "cal") if e.get("state") != "collecting"][-1]
         assert end["state"] == codes.FAILED and end["reason"] == codes.PREDICTED_ERROR_TOO_HIGH, end
         assert "follow each other" in end["msg"] and "sensor_bandwidth_hz" in end["msg"]
+        # told by the turn rate: the lag's residuals fall as the turn speeds up (measured -0.79)
+        assert "fall as the turn speeds up" in end["msg"] and "turn slower" in end["msg"]
         assert dev.app.flow.cal is None
+    finally:
+        dev.close()
+
+
+def test_a_field_that_moves_is_not_called_a_lag(tmp_path):
+    """The Mag649 (1 kHz: no lag at 0.1 rev/s) in a field drifting by 16 nT a minute: the
+    residuals follow each other as much as a lag's (rho 0.99) but not the turn rate (measured
+    0.13), and the predicted error (5.3 nT) is over a max_predicted_nt of 2.5 nT. Turning slower
+    is not the fix, and the refusal does not say it is."""
+    w, dev = _session(tmp_path, 0.1, 60.0, sensor="mag649", drift=16.0, max_predicted_nt=2.5)
+    try:
+        end = [e for e in events(w, "cal") if e.get("state") != "collecting"][-1]
+        assert end["state"] == codes.FAILED and end["reason"] == codes.PREDICTED_ERROR_TOO_HIGH, end
+        assert "but not the turn rate" in end["msg"] and "the field moves" in end["msg"], end["msg"]
+        assert "turn slower" not in end["msg"] and "sensor_bandwidth_hz" not in end["msg"]
     finally:
         dev.close()

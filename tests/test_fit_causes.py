@@ -106,3 +106,11 @@ def test_the_lag_is_told_by_the_turn_rate():
 
 def test_the_coverage_minimum_is_the_firmwares():
     assert refusal.MIN_OBSERVABILITY == import_device("config").SCHEMA["min_observability"][0]
+
+
+def test_status_calibrate_and_fit_name_the_figure_alike(drifting, tmp_path, capsys):
+    from desktop.cli._show import fit_figures
+    code, out, err = run(capsys, "fit", drifting, "-o", tmp_path / "c.json", "--accept-anyway")
+    fitted = float(PREDICTED.search(out).group(1))
+    # fit_figures is what status, calibrate, pull-cal and push-cal print of a calibration
+    assert "predicted full-sphere error %.3f nT" % fitted in fit_figures({"predicted_error": fitted})
