@@ -1,73 +1,136 @@
 """The firmware measured on the emulated Raspberry Pi Pico: the rp2 port's own firmware on an RP2040
-at 125 MHz (desktop/devicesim/pico_handheld.py), every figure in emulated cycles, not estimates.
+at 125 MHz (desktop/devicesim/pico_handheld.py), every load figure in emulated cycles, not estimates.
 
-    python -m desktop.bench.pico [--window 20]       # about 3-6 min on a quiet 2-core machine
+    python -m desktop.bench.pico [--window 10]      # about 6-10 min on a 2-core machine
 
-- deploy: `fluxcal deploy`'s code (.mpy for armv6m) onto an empty flash, wall s;
-- boot: emulated time from power-on to the firmware's main loop (status's uptime subtracted from
-  the chip's clock);
-- CPU load: cycles awake / cycles over a window, in survey and calibrating (the operator follows
-  the LED), from the runner's count of the cycles the core slept (WFI/WFE);
-- DRDY-to-read: emulated time from DRDY's fall to the first SCLK of chip 0's read, mean and worst;
-  conversions not read: by design the handler reads `window` of every `decim` frames (2 of 10);
-  missed conversions and ring overflows are the firmware's own counts (status);
-- heap: the firmware's mem_free after boot, in survey and calibrating (of 245,888 B at the REPL;
-  garbage not yet collected counts as used, so these are what was free at that moment);
+What, on one emulated Pico (idle time jumped, the operator following the LED):
+- deploy: `fluxcal deploy`'s code (.mpy for armv6m) onto an empty flash, wall s; boot: emulated
+  time from the reset that ends the deploy to the firmware's main loop;
+- a hand calibration (pico_session.py): `window` emulated s calibrating (auto-finish off), the
+  finish, then `window` s of a steady spin in survey with the stream on (corrected);
+- CPU load: cycles awake / cycles in each window, from the runner's count of the cycles the core
+  slept (WFI/WFE); DRDY to read: emulated time from DRDY's fall to the first SCLK of chip 0's read,
+  mean and worst; missed conversions and ring overflows: the firmware's own counts (status);
+- heap: status's mem_free after boot, at the end of each window and its lowest sample in it;
+- the load by part: the same session again with the firmware started from the REPL by
+  micropython-scripts/pico_parts.py, which names the part that runs on the runner's profiling
+  port (desktop/devicesim/pico/parts.mjs); the DRDY handler and the other interrupts are counted
+  by the runner from the exceptions themselves. The profiled total beside the plain one is what
+  the profiling costs. Beside each: the Cortex-M3 estimate (pico_compare.py) and the ratio;
+- the spin's PTP of |B| against the same session on the `micropython` runtime;
 - wall cost: emulated s per wall s, and how much of the wall time the world bridge's round trips took.
-The wall figures depend on the host's load; the cycle figures do not.
+The wall figures depend on the host's load (other jobs on its 2 cores); the cycle figures do not.
 """
 
 import argparse
 import os
 import sys
 import tempfile
+import threading
 import time
 
+import serial
+
+from desktop.bench import pico_compare
+from desktop.bench.pico_session import Session, configure
 from desktop.devicesim.pico_handheld import PicoHandheld
 
 CYCLE_NS = 8          # 125 MHz
+SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "micropython-scripts", "pico_parts.py")
+# the runner's keys (parts.mjs) and what they are: part N as pico_parts.py numbers them,
+# irqE the exception E (16 + the RP2040's IRQ number)
+PARTS = [("irq29", "DRDY handler (hard IRQ 13, its SPI reads included)"),
+         ("part1", "spike screen"),
+         ("part2", "calibration gates"),
+         ("part3", "add()"),
+         ("part4", "solve (provisional every 5 s; the final one in the finish)"),
+         ("part8", "finish: checks, temperature coefficients, save (less its solve)"),
+         ("part5", "survey output (|h_c|, blocks, data events)"),
+         ("part6", "protocol (the serial line)"),
+         ("irq21", "USB interrupt"),
+         ("part0", "the rest of the main loop (ring, health, button, LED, progress, wake-ups)")]
 
 
-def _status(port, timeout=30.0):
-    from desktop.link import open_device
-    dev = open_device(port, timeout=timeout)
-    try:
-        return dev.ask("status")
-    finally:
-        dev.close()
+class Runner:
+    """The emulated Pico's figures (PicoBoard.figures) with the worst DRDY-to-read latency kept
+    over every look since a window opened (the runner's worst restarts at each look)."""
+
+    def __init__(self, board):
+        self.board = board
+        self.worst = 0
+
+    def figures(self, start=False):
+        f = self.board.figures()
+        self.worst = 0 if start else max(self.worst, f["bridge"]["latencyMaxNs"])
+        f["worst_ns"] = self.worst
+        return f
+
+    def clock(self):
+        return self.figures()["ns"] / 1e9
 
 
-def _ask(port, command, timeout=30.0):
-    from desktop.link import open_device
-    dev = open_device(port, timeout=timeout)
-    try:
-        return dev.ask(command)
-    finally:
-        dev.close()
-
-
-def _window(hh, wall_s):
-    """Figures over wall_s of wall time: emulated s, load, latency, unread, wall split."""
-    a = hh.board.figures()
-    time.sleep(wall_s)
-    b = hh.board.figures()
+def delta(window):
+    """Figures of one window: load, latency, wall split, cycles by part."""
+    a, b = window["before"], window["after"]
     ns = b["ns"] - a["ns"]
-    asleep = b["asleep_ns"] - a["asleep_ns"]
+    awake = ns - (b["asleep_ns"] - a["asleep_ns"])
     ba, bb = a["bridge"], b["bridge"]
     reads = bb["reads"] - ba["reads"]
-    return {"emulated_s": ns / 1e9, "wall_s": (b["wall_ms"] - a["wall_ms"]) / 1e3,
-            "load": 1 - asleep / ns if ns else float("nan"),
-            "awake_cycles": (ns - asleep) / CYCLE_NS, "cycles": ns / CYCLE_NS,
-            "latency_us": (bb["latencySumNs"] - ba["latencySumNs"]) / reads / 1e3 if reads else float("nan"),
-            "latency_max_us": bb["latencyMaxNs"] / 1e3, "reads": reads, "unread": bb["unread"] - ba["unread"],
-            "bridge_wait_s": (bb["waitMs"] - ba["waitMs"]) / 1e3}
+    out = {"emulated_s": ns / 1e9, "wall_s": (b["wall_ms"] - a["wall_ms"]) / 1e3, "load": awake / ns,
+           "cycles": ns / CYCLE_NS, "awake_cycles": awake / CYCLE_NS, "reads": reads,
+           "latency_us": (bb["latencySumNs"] - ba["latencySumNs"]) / reads / 1e3 if reads else float("nan"),
+           "latency_max_us": b["worst_ns"] / 1e3, "unread": bb["unread"] - ba["unread"],
+           "bridge_wait_s": (bb["waitMs"] - ba["waitMs"]) / 1e3,
+           "requests": bb["requests"] - ba["requests"], "parts": {}, "calls": {}}
+    for key in set(b["parts"]["cycles"]) | set(a["parts"]["cycles"]):
+        out["parts"][key] = b["parts"]["cycles"].get(key, 0) - a["parts"]["cycles"].get(key, 0)
+        out["calls"][key] = b["parts"]["calls"].get(key, 0) - a["parts"]["calls"].get(key, 0)
+    statuses = window["samples"]
+    out["mem_free"] = window["status"]["mem_free"]
+    out["mem_free_min"] = min(s["mem_free"] for s in statuses)
+    out["missed"] = window["status"]["missed"]
+    out["overflow"] = window["status"]["overflow"]
+    return out
 
 
-def run(window_s=20.0, log=print):
+def _raw_exec(port, code, timeout=300.0):
+    """Run `code` from MicroPython's raw REPL on `port` without waiting for it to end."""
+    with serial.Serial(port, timeout=0.1) as ser:
+        got = b""
+        ser.write(b"\r\x01")
+        end = time.monotonic() + timeout
+        while b"raw REPL; CTRL-B to exit\r\n>" not in got:
+            if time.monotonic() > end:
+                raise RuntimeError("no raw REPL on %s: %r" % (port, got[-200:]))
+            got += ser.read(4096)
+            if b">>> " in got[-8:]:
+                ser.write(b"\x01")
+        ser.write(code.encode() + b"\x04")
+        got = b""
+        while b"OK" not in got:
+            if time.monotonic() > end:
+                raise RuntimeError("the raw REPL on %s did not take the script: %r" % (port, got[-200:]))
+            got += ser.read(64)
+
+
+def _profiled_firmware(hh, dev):
+    """Hand the line back, then start the firmware again under pico_parts.py; a new Device."""
+    from desktop.firmware.deploy import firmware_version
+    from desktop.link import open_device, wait_for_version
+
+    dev.ask("repl", timeout=120)
+    dev.close()
+    with open(SCRIPT) as fh:
+        code = "\n".join(ln for ln in fh.read().splitlines() if not ln.lstrip().startswith("#"))
+    _raw_exec(hh.port, code)
+    wait_for_version(hh.port, firmware_version("micropython"), wait_s=300.0)
+    return open_device(hh.port, timeout=120)
+
+
+def pico_run(window_s, log):
     from desktop.firmware.deploy import MicroPythonDeploy, firmware_version
-    from desktop.link import wait_for_version
+    from desktop.link import open_device, wait_for_version
 
-    rows = []
     with tempfile.TemporaryDirectory(prefix="fluxcal-pico-bench-") as tmp:
         with PicoHandheld(tmp, idle="jump") as hh:
             t = time.monotonic()
@@ -76,43 +139,64 @@ def run(window_s=20.0, log=print):
             log("deployed in %.1f wall s" % deploy_wall)
             # a request sent while it boots is lost, as on a board re-enumerating: ask until it answers
             wait_for_version(hh.port, firmware_version("micropython"), wait_s=300.0)
-            st = _status(hh.port)
+            dev = open_device(hh.port, timeout=120)
+            st = dev.ask("status")
             f = hh.board.figures()
-            boot_s = f["ns"] / 1e9 - st["uptime_ms"] / 1e3     # since the reset that ended the deploy
-            rows.append(("deploy (.mpy, empty flash)", "%.1f wall s" % deploy_wall, "mpy-cross, mpremote, the emulator"))
-            rows.append(("boot: power-on to the main loop", "%.2f emulated s" % boot_s, ""))
-            rows.append(("heap free after boot", "%d B" % st["mem_free"], "of 245,888 B at the REPL"))
-            survey = _window(hh, window_s)
-            st = _status(hh.port)
-            rows.append(("heap free in survey", "%d B" % st["mem_free"], ""))
-            _ask(hh.port, "start-cal")
-            time.sleep(2.0)            # the operator picks the LED up
-            cal = _window(hh, window_s)
-            st = _status(hh.port)
-            rows.append(("heap free calibrating", "%d B" % st["mem_free"], ""))
-            rows.append(("missed conversions / ring overflows (status)", "%d / %d" % (st["missed"], st["overflow"]), ""))
-            _ask(hh.port, "cancel-cal")
-            for name, w in (("survey", survey), ("calibrating", cal)):
-                rows.append(("CPU load %s (cycles awake / cycles)" % name, "%.1f %%" % (100 * w["load"]),
-                             "%.3g of %.3g cycles, %.2f emulated s" % (w["awake_cycles"], w["cycles"], w["emulated_s"])))
-                rows.append(("DRDY to read, %s: mean / worst" % name, "%.0f / %.0f us" % (w["latency_us"], w["latency_max_us"]),
-                             "%d reads; %d conversions not read (decimation)" % (w["reads"], w["unread"])))
-                rows.append(("wall cost, %s" % name, "%.2f emulated s per wall s" % (w["emulated_s"] / w["wall_s"]),
-                             "world bridge round trips %.1f of %.1f wall s" % (w["bridge_wait_s"], w["wall_s"])))
-    return rows
+            out = {"deploy_wall_s": deploy_wall, "boot_s": f["ns"] / 1e9 - st["uptime_ms"] / 1e3,
+                   "heap_boot": st["mem_free"]}
+            configure(dev, dict(hh.wiring_config(), auto_finish=False))
+            runner = Runner(hh.board)
+            for name in ("plain", "profiled"):
+                if name == "profiled":
+                    dev = _profiled_firmware(hh, dev)
+                log("%s session" % name)
+                got = Session(dev, runner.clock, hh.act, runner.figures).run(window_s)
+                out[name] = {"calibrating": delta(got["calibrating"]), "survey": delta(got["survey"]),
+                             "result": got["result"], "spin": got["spin"]}
+            dev.close()
+    return out
+
+
+def micropython_spin(window_s, log):
+    """The same session on the `micropython` runtime's virtual handheld (real time): its spin."""
+    from desktop.devicesim.runners import install_firmware
+    from desktop.devicesim.virtual_handheld import VirtualHandheld
+    from desktop.firmware.files import import_device
+    from desktop.link import open_device
+
+    with tempfile.TemporaryDirectory(prefix="fluxcal-pico-bench-mp-") as tmp:
+        flash = os.path.join(tmp, "flash")
+        os.makedirs(flash)
+        hh = VirtualHandheld(flash, runtime="micropython")
+        install_firmware(flash, hh.runtime)
+        import_device("store").save(flash, "config", dict(hh.wiring_config(), auto_finish=False))
+        with hh:
+            dev = open_device(hh.port, timeout=30)
+            log("micropython session")
+            got = Session(dev, lambda: hh.world.time, hh.act).run(window_s)
+            dev.close()
+    return {"result": got["result"], "spin": got["spin"]}
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m desktop.bench.pico", description=__doc__.split("\n")[0])
-    p.add_argument("--window", type=float, default=20.0, help="wall seconds each load window lasts")
+    p.add_argument("--window", type=float, default=10.0,
+                   help="emulated seconds each window lasts (default 10: two provisional solves)")
     args = p.parse_args(argv)
-    rows = run(args.window)
-    width = max(len(r[0]) for r in rows)
-    print("\n| %-*s | %-22s | %s |" % (width, "emulated Pico (rp2 firmware, RP2040 at 125 MHz)", "figure", "note"))
-    print("|%s|%s|%s|" % ("-" * (width + 2), "-" * 24, "-" * 40))
-    for name, fig, note in rows:
-        print("| %-*s | %-22s | %s |" % (width, name, fig, note))
-    print("\nhost load average %.1f (wall figures scale with it; cycle figures do not)" % os.getloadavg()[0])
+    t0 = time.time()
+
+    def log(msg):
+        print("[%4.0f s] %s" % (time.time() - t0, msg), file=sys.stderr, flush=True)
+    m3 = {}
+    # the Cortex-M3 counts (qemu, deterministic) meanwhile: they share the cores, not the figures
+    counting = threading.Thread(target=lambda: m3.update(pico_compare.m3_counts()), daemon=True)
+    counting.start()
+    pico = pico_run(args.window, log)
+    mp = micropython_spin(args.window, log)
+    counting.join()
+    pico_compare.print_tables(pico, mp, m3.get("firmware"))
+    print("\n(command: python -m desktop.bench.pico --window %g; %.0f s; host load average %.1f: the wall"
+          " figures scale with it, the cycle figures do not)" % (args.window, time.time() - t0, os.getloadavg()[0]))
     return 0
 
 

@@ -181,7 +181,9 @@ class PicoBoard:
 
     def figures(self, timeout=10.0):
         """The runner's counts now, a dict: ns (emulated since power-on), asleep_ns (of which the
-        core slept: cycles awake = (ns - asleep_ns) / 8 at 125 MHz), wall_ms, bridge (pins.mjs's)."""
+        core slept: cycles awake = (ns - asleep_ns) / 8 at 125 MHz), wall_ms, parts (the awake
+        cycles and calls by part, pico/parts.mjs), bridge (pins.mjs's; its latencyMaxNs is the
+        worst since the last call)."""
         n = len(self.events)
         self.proc.send_signal(signal.SIGUSR1)
         return json.loads(self.wait_event("figures ", timeout=timeout, after=n).split(" ", 1)[1])

@@ -34,8 +34,8 @@ export class WorldBridge {
     this.pending = Buffer.alloc(0);
     this.frames = [Buffer.alloc(9), Buffer.alloc(9)];
     this.validUntil = [-1, -1];
-    // latency: DRDY's fall to the first SCLK of chip 0's read (emulated ns); unread: conversions
-    // whose frame was not read before the next fell
+    // latency: DRDY's fall to the first SCLK of chip 0's read (emulated ns; latencyMaxNs the worst
+    // since the last figures()); unread: conversions whose frame was not read before the next fell
     this.stats = { requests: 0, local: 0, lockstep: 0, waitMs: 0, reads: 0, latencySumNs: 0,
       latencyMaxNs: 0, unread: 0 };
     this.fellAt = null;
@@ -44,6 +44,12 @@ export class WorldBridge {
     // and process.exit() waits for it, so the runner could not end
     new net.Socket({ fd: inFd, readable: true, writable: false }).on('data', (d) => this.onReply(d))
       .on('end', () => control.end());    // the world is gone: so is the board
+  }
+
+  figures() {                              // the counts now; the worst latency starts again
+    const f = { ...this.stats };
+    this.stats.latencyMaxNs = 0;
+    return f;
   }
 
   // ****** the pipe ******

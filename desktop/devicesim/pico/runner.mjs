@@ -42,6 +42,7 @@ const esm = (file) => import(pathToFileURL(path.join(args.modules, 'rp2040js', '
 const { RP2040, USBCDC } = await esm('index.js');
 const { SimulationClock } = await esm('clock/simulation-clock.js');
 const { WorldBridge } = args.world ? await import('./pins.mjs') : {};
+const { Parts } = await import('./parts.mjs');
 
 // ****** the flash file: the whole 2 MiB, firmware image rewritten at each start ******
 function loadFlash() {
@@ -151,6 +152,7 @@ function createChip(why) {
   // power on: the bus hands every GPIO's input its idle level before the firmware runs
   for (const [pin, level] of Object.entries(inputLevels)) mcu.gpio[pin].setInputValue(level);
   asleepNs = 0;
+  parts.attach(mcu);
   anchor();
   say(`boot (${why})`);
   if (world) world.attach(mcu, clock);
@@ -178,6 +180,7 @@ for (const pin of (args.high || '').split(',').filter(Boolean)) inputLevels[pin]
 
 // ****** the loop: run, yield, idle (things 2 and 3) ******
 let asleepNs = 0;                        // since power-on: cycles awake = (clock.nanos - asleepNs) / 8
+const parts = new Parts(() => clock.nanos - asleepNs);   // the awake cycles by part (parts.mjs)
 let anchorWall = 0, anchorEmu = 0, idleTimer = null, sleeping = false, paused = false, scheduled = false;
 const world = args.world ? new WorldBridge(...args.world.split(',').map(Number), {
   pause() { paused = true; },
@@ -255,9 +258,9 @@ process.on('SIGTERM', () => quit(0));
 process.on('SIGINT', () => quit(0));
 process.on('SIGUSR2', () => { saveFlash(); createChip('power cycle'); wake(); });
 // SIGUSR1: one line of figures (pico_board.PicoBoard.figures): emulated ns since power-on, of
-// which asleep, and the bridge's counts
+// which asleep, the awake cycles by part, and the bridge's counts
 process.on('SIGUSR1', () => say(`figures ${JSON.stringify({ ns: clock.nanos, asleep_ns: asleepNs,
-  wall_ms: performance.now(), bridge: world?.stats ?? null })}`));
+  wall_ms: performance.now(), parts: parts.figures(), bridge: world?.figures() ?? null })}`));
 process.stdout.on('error', () => quit(0));   // the host side is gone
 
 createChip('power on');

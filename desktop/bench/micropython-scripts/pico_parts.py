@@ -1,0 +1,81 @@
+# MicroPython script for the emulated Pico (desktop/bench/pico.py sends it to the REPL once the
+# firmware has handed the line back): the firmware started as main.py starts it, with the entry
+# points of its parts wrapped to name the part that runs on the runner's profiling port
+# (desktop/devicesim/pico/parts.mjs, an address only the emulator has). Each wrapper writes its
+# part's number there (with ENTRY: the runner counts a call), calls the function, and writes its
+# caller's number back, so a nested part (add() inside the gates) is charged to itself and its
+# caller gets the rest. The callers are fixed by the firmware's structure (PARENT), but for the
+# finish (the button, a command or the flow's auto-finish) and the solve (provisional or final),
+# which read the caller's number back first. Allocation-free where it runs per sample (fixed
+# arities, no *args); no try/finally (it costs cycles at every call): an exception through a
+# wrapper leaves its part named until the next wrapper returns. The wrappers' calls and writes
+# are the profiling's cost, which the bench measures as the load with them against the load
+# without. The DRDY handler needs none: it is a hard IRQ, counted by the runner as the exception.
+import app
+import calibration_flow
+import gates
+import hal_micropython
+import protocol
+import screen
+import session
+import survey
+from machine import mem32
+from micropython import const
+
+from shared import fit
+
+_PORT = const(0x40068000)
+_ENTRY = const(0x100)      # on the way in: the runner counts a call (reads give the number alone)
+# the parts' numbers, as desktop/bench/pico.py names them (0: the rest of the main loop)
+REST, SCREEN, GATES, ADD, SOLVE, OUTPUT, PROTOCOL, FINISH = 0, 1, 2, 3, 4, 5, 6, 8
+
+
+def _w1(f, part, parent):
+    def w(a):
+        mem32[_PORT] = part | _ENTRY
+        r = f(a)
+        mem32[_PORT] = parent
+        return r
+    return w
+
+
+def _w4(f, part, parent):
+    def w(a, b, c, d):
+        mem32[_PORT] = part | _ENTRY
+        r = f(a, b, c, d)
+        mem32[_PORT] = parent
+        return r
+    return w
+
+
+def _w5(f, part, parent):
+    def w(a, b, c, d, e):
+        mem32[_PORT] = part | _ENTRY
+        r = f(a, b, c, d, e)
+        mem32[_PORT] = parent
+        return r
+    return w
+
+
+def _nested(f, part, _parent):
+    def w(*a, **k):
+        prev = mem32[_PORT]
+        mem32[_PORT] = part | _ENTRY
+        r = f(*a, **k)
+        mem32[_PORT] = prev
+        return r
+    return w
+
+
+def _wrap(cls, name, wrapper, part, parent=None):
+    setattr(cls, name, wrapper(getattr(cls, name), part, parent))
+
+
+_wrap(survey.Output, "sample", _w5, OUTPUT, REST)          # per sample: |h_c|, the block, the data event
+_wrap(screen.Screen, "push", _w5, SCREEN, OUTPUT)          # ... first the spike screen,
+_wrap(gates.Gates, "sample", _w4, GATES, OUTPUT)           # ... then a session's gates,
+_wrap(fit.EllipsoidFit, "add", _w4, ADD, GATES)            # ... which add() what they accept
+_wrap(protocol.Protocol, "poll", _w1, PROTOCOL, REST)      # the serial line: read, parse, answer
+_wrap(session.Session, "_solve", _nested, SOLVE)           # every solve_every_s, and the final one
+_wrap(calibration_flow.CalibrationFlow, "finish", _nested, FINISH)   # the checks, tempco, the save
+app.start(hal_micropython)

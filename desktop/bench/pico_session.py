@@ -1,0 +1,78 @@
+"""One hand calibration and one survey spin on a virtual handheld, with what the bench reads meanwhile
+(desktop/bench/pico.py runs it on the emulated Pico, plain and profiled, and on the `micropython`
+runtime for the spin's comparison).
+
+    s = Session(dev, clock, act, figures=board.figures)   # dev: desktop.link's Device on the port
+    got = s.run(window_s=10.0)
+
+The steps, each timed on the board's own clock (`clock()`: emulated or simulated seconds):
+the operator follows the LED after `start-cal` for `window_s` (the calibrating window: auto_finish
+is off, so the session collects the whole time), `finish-cal`, then `stream corrected` and a
+steady spin of one turn a second for `window_s` (the survey window; PTP of the streamed |B| over
+it). `status` is asked every SAMPLE_S of wall time in both windows: its mem_free is sampled
+(garbage not yet collected counts as used).
+"""
+
+import time
+
+SETTLE_S = 1.0        # board seconds after an operator's change before a window opens
+SAMPLE_S = 1.0        # wall seconds between status samples (each costs the board a reply)
+
+
+class Session:
+    def __init__(self, dev, clock, act, figures=None):
+        self.dev = dev
+        self.clock = clock            # () -> the board's seconds
+        self.act = act                # act(action): the operator (virtual_handheld.ACTIONS)
+        self.figures = figures        # (start=False) -> the runner's figures (pico.Runner), or None
+
+    def wait(self, seconds):
+        """Until `seconds` of board time have passed; the status samples taken meanwhile."""
+        end = self.clock() + seconds
+        samples = []
+        nxt = time.monotonic()
+        while self.clock() < end:
+            if time.monotonic() >= nxt:
+                samples.append(self.dev.ask("status", timeout=120))
+                nxt = time.monotonic() + SAMPLE_S
+            time.sleep(0.2)
+        return samples
+
+    def window(self, seconds):
+        """{"before", "after": runner figures, "samples": statuses, "status": the last one}."""
+        before = self.figures(start=True) if self.figures else None
+        samples = self.wait(seconds)
+        after = self.figures() if self.figures else None
+        status = self.dev.ask("status", timeout=120)
+        return {"before": before, "after": after, "samples": samples + [status], "status": status}
+
+    def run(self, window_s):
+        dev = self.dev
+        dev.ask("start-cal", timeout=120)
+        self.act("follow")
+        self.wait(SETTLE_S)
+        cal = self.window(window_s)
+        result = dev.ask("finish-cal", timeout=300)["result"]
+        dev.ask("stream corrected", timeout=120)
+        self.act("spin")
+        self.wait(SETTLE_S)
+        while dev.next_event(0.3) is not None:     # the blocks before the window
+            pass
+        survey = self.window(window_s)
+        blocks = []
+        while True:
+            ev = dev.next_event(0.0)
+            if ev is None:
+                break
+            if ev.get("ev") == "data":
+                blocks.append(ev)
+        dev.ask("stream off", timeout=120)
+        self.act("follow")
+        return {"calibrating": cal, "survey": survey, "result": result, "spin": [b["f"] for b in blocks]}
+
+
+def configure(dev, settings):
+    """config set each key (persisted on the board's flash)."""
+    for key, value in settings.items():
+        dev.ask("config set %s %s" % (key, str(value).lower() if isinstance(value, bool) else repr(value)),
+                timeout=120)
