@@ -63,10 +63,23 @@ class Runner:
         f = self.board.figures()
         self.worst = 0 if start else max(self.worst, f["bridge"]["latencyMaxNs"])
         f["worst_ns"] = self.worst
+        f["node_cpu_s"] = _cpu_s(self.board.proc.pid)
+        t = os.times()
+        f["python_cpu_s"] = t.user + t.system      # the world, the relay and this bench's threads
         return f
 
     def clock(self):
         return self.figures()["ns"] / 1e9
+
+
+def _cpu_s(pid):
+    """CPU seconds (user + system) process `pid` has used (Linux /proc; nan elsewhere)."""
+    try:
+        with open("/proc/%d/stat" % pid) as fh:
+            fields = fh.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return float("nan")
 
 
 def delta(window):
@@ -81,7 +94,8 @@ def delta(window):
            "latency_us": (bb["latencySumNs"] - ba["latencySumNs"]) / reads / 1e3 if reads else float("nan"),
            "latency_max_us": b["worst_ns"] / 1e3, "unread": bb["unread"] - ba["unread"],
            "bridge_wait_s": (bb["waitMs"] - ba["waitMs"]) / 1e3,
-           "requests": bb["requests"] - ba["requests"], "parts": {}, "calls": {}}
+           "requests": bb["requests"] - ba["requests"], "parts": {}, "calls": {},
+           "node_cpu_s": b["node_cpu_s"] - a["node_cpu_s"], "python_cpu_s": b["python_cpu_s"] - a["python_cpu_s"]}
     for key in set(b["parts"]["cycles"]) | set(a["parts"]["cycles"]):
         out["parts"][key] = b["parts"]["cycles"].get(key, 0) - a["parts"]["cycles"].get(key, 0)
         out["calls"][key] = b["parts"]["calls"].get(key, 0) - a["parts"]["calls"].get(key, 0)

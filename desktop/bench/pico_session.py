@@ -9,14 +9,15 @@ The steps, each timed on the board's own clock (`clock()`: emulated or simulated
 the operator follows the LED after `start-cal` for `window_s` (the calibrating window: auto_finish
 is off, so the session collects the whole time), `finish-cal`, then `stream corrected` and a
 steady spin of one turn a second for `window_s` (the survey window; PTP of the streamed |B| over
-it). `status` is asked every SAMPLE_S of wall time in both windows: its mem_free is sampled
-(garbage not yet collected counts as used).
+it). `status` is asked every SAMPLE_S of board time in both windows (on the board's clock, so
+what the requests cost the firmware does not depend on the host's speed): its mem_free is
+sampled (garbage not yet collected counts as used).
 """
 
 import time
 
 SETTLE_S = 1.0        # board seconds after an operator's change before a window opens
-SAMPLE_S = 1.0        # wall seconds between status samples (each costs the board a reply)
+SAMPLE_S = 2.5        # board seconds between status samples (each costs the firmware ~1.5 M cycles)
 
 
 class Session:
@@ -28,14 +29,16 @@ class Session:
 
     def wait(self, seconds):
         """Until `seconds` of board time have passed; the status samples taken meanwhile."""
-        end = self.clock() + seconds
+        now = self.clock()
+        end = now + seconds
         samples = []
-        nxt = time.monotonic()
-        while self.clock() < end:
-            if time.monotonic() >= nxt:
+        nxt = now + SAMPLE_S
+        while now < end:
+            if now >= nxt:
                 samples.append(self.dev.ask("status", timeout=120))
-                nxt = time.monotonic() + SAMPLE_S
+                nxt += SAMPLE_S
             time.sleep(0.2)
+            now = self.clock()
         return samples
 
     def window(self, seconds):

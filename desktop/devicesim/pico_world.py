@@ -10,6 +10,9 @@ emulated time of each (ns since the chip's power-on), and this moves the World t
 first: the world's clock is the emulated clock. pins.mjs says why frames are handed ahead: a
 frame read is answered there from the frame sent here with the last reply and clocked through
 the model afterwards ('R'); a byte the model answered differently is counted in `mismatches`.
+Chip 0's DRDY falls until the runner's next news are handed ahead too (the schedule: no world
+state in them), so the runner asks only at news, at a read of a new conversion's frame, and at
+what the firmware does to the chips, not at every conversion.
 """
 
 import math
@@ -20,7 +23,9 @@ from desktop.sim.ads1292.faults import DRDY_DEAD
 from desktop.sim.ads1292.registers import F_MOD
 
 MSG = struct.Struct("<BBHxxxxd")          # type, a, b, emulated ns
-REPLY = struct.Struct("<BB6xddd9s9s")     # miso, flags, next event ns, frames' valid-until ns, frames
+FALLS = 16                                # DRDY falls handed ahead in one reply, at most
+# miso, flags, next event ns, frames' valid-until ns, frames, falls listed, their ns
+REPLY = struct.Struct("<BB6xddd9s9sB7x%dd" % FALLS)
 START, RESET, LED = 22, 26, 25            # device/config.py's pin_start, pin_reset, pin_led
 DRDY_LOW, DRDY_FELL, PRESSED = 1, 2, 4
 # the runner asks for news at least this often: the button and the operator's LED-following
@@ -35,6 +40,8 @@ class PinWorld:
         self.offset = world.time          # world time (s) at emulated time 0
         self._falls = world.chips[0].drdy_falls
         self._frames = [b"", b""]         # what the runner holds for each chip
+        self._listed = []                 # emulated ns of the falls the last reply handed ahead
+        self._at_ns = 0                   # emulated ns of the message in hand
         self.counts = {"B": 0, "T": 0, "S": 0, "R": 0, "E": 0, "P": 0}
         self.replayed = 0                 # frame bytes answered in the runner and clocked through here
         self.mismatches = 0               # ... of which the model answered otherwise
@@ -59,10 +66,12 @@ class PinWorld:
     def handle(self, kind, a, b, ns):
         """One message from the runner; the reply bytes, or None for none."""
         self.counts[kind] += 1
+        self._at_ns = ns
         w = self.world
         if kind == "B":                   # the chip (re)starts: its clock starts at 0
             self.offset = w.time
             self.boots += 1
+            self._listed = []
             self._select(0)
             return None
         self._to(ns)
@@ -95,16 +104,21 @@ class PinWorld:
         w = self.world
         c0 = w.chips[0]
         flags = 0 if c0.drdy else DRDY_LOW
-        if c0.drdy_falls != self._falls:  # a conversion since the last reply: an edge on the pin
-            self._falls = c0.drdy_falls
-            flags |= DRDY_FELL
         now = w.time
+        # a conversion since the last reply that the runner did not make an edge for itself
+        # (the falls handed ahead): an edge on the pin now
+        if c0.drdy_falls - self._falls > sum(1 for t in self._listed if t <= self._at_ns):
+            flags |= DRDY_FELL
+        self._falls = c0.drdy_falls
         if any(down <= now < up for down, up in w.button_events):
             flags |= PRESSED
         news = [now + NEWS_S] + [e for ev in w.button_events for e in ev if e > now]
-        fall = _next_conversion(c0)
-        if fall is not None and w.start_level:
-            news.append(fall)
+        falls = _falls_ahead(c0, w.start_level)
+        if len(falls) > FALLS:            # more than a reply holds: news at the first not held
+            news.append(falls[FALLS])
+        news_at = min(news)
+        # as the runner's alarms fire them: it has made the edge by the time of any later request
+        self._listed = [self._ns(t) for t in falls[:FALLS] if t < news_at]
         frames, valid = [], []
         for k, chip in enumerate(w.chips[:2]):
             nxt = _next_conversion(chip)
@@ -112,7 +126,9 @@ class PinWorld:
             frames.append(chip.frame if ok else bytes(9))
             valid.append((self._ns(nxt) - 2 if nxt is not None else 1e300) if ok else -1.0)
         self._frames = frames
-        return REPLY.pack(miso, flags, self._ns(min(news)), valid[0], valid[1], frames[0], frames[1])
+        listed = self._listed + [0.0] * (FALLS - len(self._listed))
+        return REPLY.pack(miso, flags, self._ns(news_at), valid[0], valid[1], frames[0], frames[1], len(self._listed),
+                          *listed)
 
     def serve(self, read, write):
         """Answer the runner until its pipe ends: read(n) -> bytes (b"" at the end), write(bytes)."""
@@ -124,6 +140,28 @@ class PinWorld:
             reply = self.handle(chr(kind), a, b, ns)
             if reply is not None:
                 write(reply)
+
+
+def _falls_ahead(chip, start_level):
+    """Chip times (s) of the chip's next DRDY edges within NEWS_S, FALLS + 1 at most: the
+    schedule's, which nothing but a request (START, a command) or news (a fault) changes. With
+    START low or the chip stopping, the next one only."""
+    first = _next_conversion(chip)
+    if first is None:
+        return []
+    if not start_level or chip.stopping:
+        return [first]
+    s = chip.schedule
+    step = chip.config.decimation
+    out = []
+    m = s.m_next
+    while len(out) <= FALLS:
+        t = s.nominal_tick(m) / F_MOD
+        if t > first + NEWS_S:
+            break
+        out.append(t)
+        m += step
+    return out
 
 
 def _next_conversion(chip):

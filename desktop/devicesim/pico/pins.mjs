@@ -10,19 +10,23 @@
 //    afterwards ('R'), and Python clocks them through the model (which must answer the same);
 //  - anything else (a command, a register, a read after the frame went stale) pauses the core
 //    while the byte goes to Python and back ('S'): no emulated time passes meanwhile.
-// DRDY falls, the button changes and START/RESET edges are requests too ('T', 'P'): the core
-// waits for the world's answer, which names the next time the world has news (at most 10 ms on).
+// The button, START/RESET edges and the world's news are requests too ('T', 'P'): the core waits
+// for the world's answer, which names the next time the world has news (at most 10 ms on) and
+// lists chip 0's DRDY falls before it; this makes those edges on its own clock (a fall needs no
+// world state: it is the chips' schedule), so a conversion costs a round trip only when the
+// firmware reads its frame ('T' at the first byte of a read whose frame is stale).
 //
 // Messages to Python (fd 4): 16 bytes "<BBHxxxxd": type, a, b, emulated ns.
 //   B boot | T tick (reply) | S mask,byte (reply) | R mask,n | E (CS high) | P gpio,level (reply
 //   for START and RESET).
-// Replies (fd 3): 50 bytes "<BB6xddd9s9s": miso, flags (1 DRDY low, 2 DRDY fell, 4 button
-//   pressed), next event ns, frame 0 valid until ns, frame 1 valid until ns, frame 0, frame 1.
+// Replies (fd 3): 186 bytes "<BB6xddd9s9sB7x16d": miso, flags (1 DRDY low, 2 DRDY fell, 4 button
+//   pressed), next event ns, frame 0 valid until ns, frame 1 valid until ns, frame 0, frame 1,
+//   n, the ns of the next n DRDY falls (before the next event).
 import fs from 'node:fs';
 import net from 'node:net';
 
 const CS = [17, 20], DRDY = 21, START = 22, RESET = 26, BUTTON = 15, LED = 25;
-const MSG = 16, REPLY = 50;
+const MSG = 16, REPLY = 186, FALLS = 16;
 const LOW = 0, HIGH = 1;                  // GPIOPinState of an output
 
 export class WorldBridge {
@@ -36,8 +40,9 @@ export class WorldBridge {
     this.validUntil = [-1, -1];
     // latency: DRDY's fall to the first SCLK of chip 0's read (emulated ns; latencyMaxNs the worst
     // since the last figures()); unread: conversions whose frame was not read before the next fell
-    this.stats = { requests: 0, local: 0, lockstep: 0, waitMs: 0, reads: 0, latencySumNs: 0,
-      latencyMaxNs: 0, unread: 0 };
+    this.stats = { requests: 0, local: 0, lockstep: 0, fetches: 0, falls: 0, waitMs: 0, reads: 0,
+      latencySumNs: 0, latencyMaxNs: 0, unread: 0 };
+    this.falls = [];                      // the ns of the DRDY falls handed ahead, next first
     this.fellAt = null;
     this.asked = 0;
     // a socket on the pipe, not fs.createReadStream: that one blocks a libuv thread in read(),
@@ -94,21 +99,42 @@ export class WorldBridge {
     }
   }
 
+  // a new conversion: a falling edge, as on the pin
+  fall() {
+    this.mcu.gpio[DRDY].setInputValue(true);
+    this.mcu.gpio[DRDY].setInputValue(false);
+    if (this.fellAt !== null) this.stats.unread++;
+    this.fellAt = this.clock.nanos;
+  }
+
+  fallAhead() {                                  // the next of the falls handed ahead
+    this.stats.falls++;
+    this.falls.shift();
+    this.fall();
+    this.scheduleFall();
+  }
+
+  scheduleFall() {
+    if (this.falls.length) this.fallAlarm.schedule(Math.max(0, this.falls[0] - this.clock.nanos));
+    else this.fallAlarm.cancel();
+  }
+
   apply(r) {
     const flags = r.readUInt8(1);
     const drdy = this.mcu.gpio[DRDY];
-    if (flags & 2) {                             // a new conversion: a falling edge, as on the pin
-      drdy.setInputValue(true);
-      if (this.fellAt !== null) this.stats.unread++;
-      this.fellAt = this.clock.nanos;
-    }
-    drdy.setInputValue(!(flags & 1));
+    if (flags & 2) this.fall();
+    // the pin falls only with an edge (a conversion): low in the world while high here is a
+    // read whose first SCLK the model has not seen yet (the frame fetched for it)
+    if (!(flags & 1)) drdy.setInputValue(true);
     this.mcu.gpio[BUTTON].setInputValue(!(flags & 4));   // to ground when pressed
     this.worldAlarm.schedule(Math.max(0, r.readDoubleLE(8) - this.clock.nanos));
     for (let k = 0; k < 2; k++) {
       this.validUntil[k] = r.readDoubleLE(16 + 8 * k);
       r.copy(this.frames[k], 0, 32 + 9 * k, 41 + 9 * k);
     }
+    this.falls = [];
+    for (let i = 0; i < Math.min(r.readUInt8(50), FALLS); i++) this.falls.push(r.readDoubleLE(58 + 8 * i));
+    this.scheduleFall();
   }
 
   // ****** a new chip (power on, reset): wire it ******
@@ -125,6 +151,8 @@ export class WorldBridge {
     mcu.gpio[DRDY].setInputValue(true);
     mcu.gpio[BUTTON].setInputValue(true);
     this.worldAlarm = clock.createAlarm(() => this.request('T', 0, 0, () => {}));
+    this.falls = [];
+    this.fallAlarm = clock.createAlarm(() => this.fallAhead());
     for (const pin of CS) mcu.gpio[pin].addListener(() => this.onChipSelect());
     for (const pin of [START, RESET]) {
       mcu.gpio[pin].addListener((state) => {
@@ -173,6 +201,14 @@ export class WorldBridge {
       this.stats.latencySumNs += latency;
       this.stats.latencyMaxNs = Math.max(this.stats.latencyMaxNs, latency);
       this.fellAt = null;
+    }
+    if (txn && txn.local && k !== undefined && byte === 0 && txn.n === 0 && this.clock.nanos >= this.validUntil[k]
+        && this.fetchedAt !== this.clock.nanos) {
+      // a read of a conversion made here (its frame not yet in hand): the world's frames now
+      this.stats.fetches++;
+      this.fetchedAt = this.clock.nanos;
+      this.request('T', 0, 0, () => this.onByte(spi, byte));
+      return;
     }
     if (txn && txn.local && k !== undefined && byte === 0 && this.clock.nanos < this.validUntil[k]) {
       if (txn.n === 0) txn.t0 = this.clock.nanos;

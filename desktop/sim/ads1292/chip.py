@@ -212,6 +212,11 @@ class ADS1292(CommandDecoder):
             raise TimeoutError("no DRDY within %.6f s" % timeout)
         return next_drdy
 
+    @property
+    def stopping(self):
+        """The next conversion is the last one (single shot, STOP, START low) [DS §8.5.1.10]."""
+        return self._stop_after_next or self.config.single_shot
+
     def advance_to_tick(self, tick):
         """Let time pass up to modulator tick `tick` (no-op if already there)."""
         if tick > self._ticks_f:
