@@ -25,17 +25,15 @@ def _cause(d):
     """Why the predicted error is high, and what to do about it (desktop/methods/refusal.py alike)."""
     rho = _number(d, "residual_rho")
     if rho is None or rho <= 0.5:
-        return "the residuals are independent: turn for longer, through more orientations"
+        return "independent residuals: turn for longer, through more orientations"
     turn = _number(d, "residual_turn_corr")
-    if turn is None:
-        return ("the residuals follow each other (rho %.2f): the sensor lags the turn (check sensor_bandwidth_hz) or "
-                "the field moves" % rho)
+    why = "the residuals follow each other (rho %.2f" % rho
+    if turn is None:      # a calibration from before the turn was counted (set-cal)
+        return why + "): the sensor lags the turn (check sensor_bandwidth_hz) or the field moves"
+    # a lag reads |h| short by B (tau w)^2 / 2: the residuals fall as the turn speeds up
     if turn < -0.3:
-        # a lag reads |h| short by B (tau w)^2 / 2: the residuals fall as the turn speeds up
-        return ("the residuals follow each other (rho %.2f) and fall as the turn speeds up (%.2f): the sensor lags the "
-                "turn (check sensor_bandwidth_hz): turn slower" % (rho, turn))
-    return ("the residuals follow each other (rho %.2f) but not the turn rate (%.2f): the field moves, or iron moves "
-            "with the sensor; turning slower will not help" % (rho, turn))
+        return why + ", with the turn rate %.2f): the sensor lags the turn (check sensor_bandwidth_hz): turn slower" % turn
+    return why + ", with the turn rate %.2f): the field or iron near it moves; turning slower will not help" % turn
 
 
 def check_calibration(cal, cfg, k):
