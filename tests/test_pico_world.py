@@ -58,6 +58,8 @@ def edge(p):
 drdy.irq(edge, Pin.IRQ_FALLING, hard=True)
 start(1); time.sleep_ms(100); start(0)
 f = bytearray(9); cs0(0); spi.readinto(f, 0); cs0(1)
+import machine
+machine.mem32[0x40068000] = 0x107; machine.mem32[0x40068000] = 0    # the profiling port: part 7, once
 print('ids', hex(id0[2]), hex(id1[2]), 'edges', n[0], 'status', hex(f[0] >> 4))
 """)
     words = out.split()
@@ -70,6 +72,10 @@ print('ids', hex(id0[2]), hex(id1[2]), 'edges', n[0], 'status', hex(f[0] >> 4))
     assert expected <= int(words[4]) <= expected + 1, out
     assert words[6] == "0xc", out                       # a frame's status word starts 1100 [DS 8.5.1.9]
     assert pins.mismatches == 0 and pins.counts["S"] > 0
+    # the runner's count by part (desktop/devicesim/pico/parts.mjs): every edge entered the GPIO
+    # bank's interrupt (exception 16 + 13), and the one named part was entered once
+    calls = board.figures()["parts"]["calls"]
+    assert calls.get("irq29", 0) >= int(words[4]) and calls.get("part7") == 1, calls
 
 
 def test_an_allocation_in_the_hard_drdy_interrupt_fails_as_on_a_board(world_board):
