@@ -156,3 +156,28 @@ def test_format_errors_name_the_file(tmp_path):
     path.write_text("# only a comment\n\n")
     with pytest.raises(FormatError, match="empty.csv: empty file"):
         read_log(str(path))
+
+
+def test_a_spreadsheets_byte_order_mark_and_8_bit_text(tmp_path, field):
+    rows = "".join("%.4f;%.4f;%.4f\n" % tuple(v) for v in field)
+    bom = tmp_path / "excel.csv"
+    bom.write_bytes(b"\xef\xbb\xbfBx;By;Bz\n" + rows.encode())
+    latin = tmp_path / "latin.csv"
+    latin.write_bytes("x (\xb5T);y (\xb5T);z (\xb5T)\n".encode("latin-1") + rows.encode())
+    assert np.allclose(read_log(str(bom), LogFormat(columns="bx,by,bz"))[0], field, atol=1e-4)
+    assert np.allclose(read_log(str(latin))[0], field, atol=1e-4)
+    binary = tmp_path / "capture.bin"
+    binary.write_bytes(b"\x00\x01\x02" * 100)
+    with pytest.raises(FormatError, match="not a text file"):
+        read_log(str(binary))
+
+
+def test_correct_reads_the_log_as_fit_does(tmp_path, capsys, field):
+    path = write(tmp_path / "g.csv", ["ax", "ay", "az", "mx", "my", "mz"],
+                 [["0", "0", "1"] + ["%.8f" % c for c in v] for v in field / 1e5])
+    assert main(["fit", path, "--unit", "G", "-o", str(tmp_path / "c.json")]) == 0
+    assert main(["correct", str(tmp_path / "c.json"), path, "--unit", "G", "-o", str(tmp_path / "out.csv")]) == 0
+    table = np.loadtxt(tmp_path / "out.csv", delimiter=",", skiprows=1)
+    assert table.shape == (len(field), 4)
+    # the field's 0.1 nT noise, and the 1e-8 G = 1e-3 nT of the written digits
+    assert table[:, 3].std() < 0.5

@@ -43,12 +43,17 @@ class Table:
 def read_table(path, skip=0):
     """The log at path, its first `skip` lines left out; blank lines and '#' comments ignored."""
     try:
-        with open(path, newline="") as fh:
-            lines = fh.read().splitlines()
-    except UnicodeDecodeError:
-        raise FormatError("%s: not a text file" % path)
+        with open(path, "rb") as fh:
+            raw = fh.read()
     except OSError as exc:
         raise FormatError("%s: %s" % (path, exc.strerror or exc))
+    if b"\0" in raw:
+        raise FormatError("%s: not a text file" % path)
+    try:
+        text = raw.decode("utf-8-sig")     # a spreadsheet's byte-order mark is not part of the first name
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")       # a logger's own 8-bit text, e.g. a unit in its header
+    lines = text.splitlines()
     numbered = [(i + 1, s) for i, s in enumerate(lines) if i >= skip and s.strip() and not s.lstrip().startswith("#")]
     if not numbered:
         raise FormatError("%s: empty file" % path + (" after skipping %d lines" % skip if skip else ""))
