@@ -110,12 +110,14 @@ def test_metadata_lines_name_the_skip_that_reads_them(tmp_path, capsys, field):
 
 
 def test_an_accelerometer_beside_the_field_is_not_taken_for_it(tmp_path, capsys, field):
-    # x,y,z of two sensors: which is the field is for the user to say
     rows = [["0", "0", "1"] + ["%.1f" % c for c in v] for v in field]
-    path = write(tmp_path / "two.csv", ["acc_x", "acc_y", "acc_z", "mag_x", "mag_y", "mag_z"], rows)
+    path = write(tmp_path / "imu.csv", ["acc_x", "acc_y", "acc_z", "mag_x", "mag_y", "mag_z"], rows)
+    assert np.allclose(read_log(path)[0], field, atol=0.05)
+    # two magnetometers' x, y, z: which one to fit is for the user to say
+    path = write(tmp_path / "two.csv", ["mag1_x", "mag1_y", "mag1_z", "mag2_x", "mag2_y", "mag2_z"], rows)
     err = one_line_error(capsys, "fit", path, "-o", str(tmp_path / "c.json"))
-    assert "columns acc_x,mag_x for x" in err and "--columns X,Y,Z" in err
-    h, _ = read_log(path, LogFormat(columns="mag_x,mag_y,mag_z"))
+    assert "columns mag1_x,mag2_x for x" in err and "--columns X,Y,Z" in err
+    h, _ = read_log(path, LogFormat(columns="mag2_x,mag2_y,mag2_z"))
     assert np.allclose(h, field, atol=0.05)
 
 
@@ -181,3 +183,12 @@ def test_correct_reads_the_log_as_fit_does(tmp_path, capsys, field):
     assert table.shape == (len(field), 4)
     # the field's 0.1 nT noise, and the 1e-8 G = 1e-3 nT of the written digits
     assert table[:, 3].std() < 0.5
+
+
+def test_numpys_commented_header_names_the_columns(tmp_path, field):
+    # np.savetxt's default: the header behind "# "
+    data = np.column_stack([np.arange(len(field)) / RATE, np.zeros(len(field)), field])
+    path = tmp_path / "saved.txt"
+    np.savetxt(path, data, header="time gyro_z mag_x mag_y mag_z", fmt="%.4f")
+    h, t = read_log(str(path))
+    assert np.allclose(h, field, atol=1e-4) and np.allclose(t, np.arange(len(field)) / RATE)

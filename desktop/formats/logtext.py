@@ -4,7 +4,7 @@ whitespace, with or without a header line, after any number of metadata lines.
     table = read_table(path, skip=0)               # Table: header names (or None), rows of fields
     cols = field_columns(table, "mx,my,mz")        # three 0-based indices; None: found by name
     xyz = numbers(table, cols)                     # (N, 3) float64 in the log's own unit
-    t_col = time_column(table, None)               # an index, or None when there is no time column
+    found = time_column(table, None)               # (index, seconds per unit), or None: no time column
 
 The csv module splits delimited lines (quotes and spaces after a comma handled), str.split
 whitespace-separated ones, and numpy converts the chosen columns. Every failure is a
@@ -20,8 +20,11 @@ from desktop.formats import FormatError
 
 DELIMITERS = ",;\t"
 # Column names that are a field component along an axis: "x", "mx", "bx", "mag_x", "flux_a_x_nT",
-# "compass_x_gauss"; an accelerometer's or gyroscope's ("ax", "gx") are not.
+# "compass_x_gauss", "Magnetic Field x"; an accelerometer's or gyroscope's ("ax", "gx") are not,
+# and beside a name with one of _FIELD_WORDS a bare axis ("acc_x", "gyro_x") is not taken either.
 _AXIS_PREFIXES = ("m", "b", "h", "mag", "field", "compass", "flux")
+_FIELD_WORDS = ("m", "b", "h", "mag", "magn", "magnetic", "magnetometer", "field", "compass", "flux", "fluxgate",
+                "nt", "ut", "gauss", "mg")
 # Column names of time, as loggers write them, and the unit their suffix says (default s).
 TIME_NAMES = ("t", "time", "sec", "secs", "second", "seconds", "timestamp", "ts", "elapsed")
 TIME_UNITS = {"ms": 1e-3, "millis": 1e-3, "msec": 1e-3, "us": 1e-6, "micros": 1e-6, "s": 1.0, "sec": 1.0}
@@ -71,10 +74,21 @@ def read_table(path, skip=0):
         raise FormatError("%s: line %d has %d field%s (%r), a magnetometer log needs three columns%s"
                           % (path, split[0][0], len(head), "" if len(head) == 1 else "s", first.strip()[:40], hint))
     if all(_is_number(f) for f in head):
-        return Table(path, None, split)
+        return Table(path, _commented_header(lines, numbered[0][0], delimiter, len(head)), split)
     if len(split) == 1:
         raise FormatError("%s: no data rows" % path)
     return Table(path, head, split[1:])
+
+
+def _commented_header(lines, first, delimiter, width):
+    """Names in a '#' line just before the data (numpy.savetxt's header), or None."""
+    above = lines[first - 2].strip() if first >= 2 else ""
+    if not above.startswith("#"):
+        return None
+    text = above.lstrip("#").strip()
+    names = next(csv.reader([text], delimiter=delimiter, skipinitialspace=True)) if delimiter else text.split()
+    names = [n.strip() for n in names]
+    return names if len(names) == width and not all(_is_number(n) for n in names) else None
 
 
 def _is_number(text):
@@ -121,7 +135,10 @@ def field_columns(table, spec=None):
                           "(0-based indices)" % (table.path, table.width))
     cols = []
     for axis in "xyz":
-        found = [k for k, n in enumerate(table.names) if _is_axis(n, axis)]
+        found = [k for k, n in enumerate(table.names) if _axis_match(n, axis)]
+        # a name that says it is the field ("mag_x") over one that only says the axis ("gyro_x")
+        named = [k for k in found if _axis_match(table.names[k], axis) == 2]
+        found = named if len(named) == 1 else found
         if len(found) != 1:
             why = "no column" if not found else "columns %s" % ",".join(table.names[k] for k in found)
             raise FormatError("%s: %s for %s in the header (%s): name the field's columns with --columns X,Y,Z"
@@ -130,11 +147,15 @@ def field_columns(table, spec=None):
     return cols
 
 
-def _is_axis(name, axis):
+def _axis_match(name, axis):
+    """2: a field's component along axis ("mx", "mag_x", "flux_a_x_nT"); 1: only the axis ("x",
+    "gyro_x"); 0: neither."""
     tokens = _tokens(name)
-    if axis in tokens:                                # "x", "flux_a_x_nT", "compass_x_gauss"
-        return True
-    return any(p + axis in tokens for p in _AXIS_PREFIXES)    # "mx", "magx"
+    if any(p + axis in tokens for p in _AXIS_PREFIXES):          # "mx", "magx"
+        return 2
+    if axis in tokens:
+        return 2 if set(tokens) & set(_FIELD_WORDS) else 1
+    return 0
 
 
 def time_column(table, spec=None):
