@@ -6,7 +6,7 @@
     flow.press(ev)          # the button: idle, a short press starts (auto), a long one a quick one;
                             # calibrating, a short press finishes, a long one cancels
     flow.tick()             # every main-loop pass while calibrating: solves, progress, the LED
-    flow.start(kind) / flow.finish() / flow.cancel()    # start-cal / finish-cal / cancel-cal
+    flow.start(kind, hold) / flow.finish() / flow.cancel()    # start-cal / finish-cal / cancel-cal
     flow.install(cal) / flow.clear()                    # set-cal / clear-cal
     flow.status()           # its part of `status`
 
@@ -98,12 +98,12 @@ class CalibrationFlow:
         # coverage is a pass over all cells: check it only after a provisional solve
         if solved and s.ready():
             self.led.set(ledp.ENOUGH)
-            if self.cfg["auto_finish"]:
+            if self.cfg["auto_finish"] and not s.hold:
                 self.finish()
         elif s.timed_out(now, self._diff):
             self.finish()
 
-    def start(self, kind=AUTO):
+    def start(self, kind=AUTO, hold=False):
         if self.session is not None:
             raise ProtocolError(codes.BUSY, "calibration already in progress")
         sup = self.supervisor
@@ -118,7 +118,7 @@ class CalibrationFlow:
         # the previous calibration as it stands now (its temperature coefficients applied)
         prior = None if kind == FULL else self.output.cal_now
         gc.collect()   # the session's buffers want a few contiguous KB of a small heap
-        self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind)
+        self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind, hold)
         self.output.session = self.session
         self.last_progress = self.board.ticks_ms()
         self.led.set(ledp.COLLECTING)

@@ -86,10 +86,16 @@ def clear_cal(app, args):
 
 
 def start_cal(app, args):
-    # start-cal [auto|full|quick]: auto (the button's short press) ends quick when a
-    # calibration is in force and the coverage stays partial, else full
-    kind = args.strip() or codes.AUTO
-    app.flow.start(kind)
+    # start-cal [auto|full|quick] [hold]: auto (the button's short press) ends quick when a
+    # calibration is in force and the coverage stays partial, else full; hold: the session
+    # waits for finish-cal (or the button) even once it is ready and auto_finish is on
+    words = args.split()
+    hold = "hold" in words
+    if hold:
+        words.remove("hold")
+    if len(words) > 1:
+        raise ProtocolError(codes.BAD_ARGUMENT, "start-cal takes [auto|full|quick] [hold]")
+    app.flow.start(words[0] if words else codes.AUTO, hold)
     return {"kind": app.flow.session.kind}
 
 

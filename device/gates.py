@@ -180,6 +180,15 @@ class Gates:
             self.hist_n += 1
         return True
 
+    def last_direction(self):
+        """[x, y, z] of the latest sample about the centre (14-bit sums, as the cells see it):
+        where the sensor points now, for the progress event; None before the first sample."""
+        if not self.seen:
+            return None
+        i = ((self._ri - 1) % self._stride) * 3
+        r = self._ring
+        return [r[i], r[i + 1], r[i + 2]]
+
     def _backoff(self):
         """Remove samples accepted in the second before a disturbance was detected."""
         h = self.hist

@@ -1,6 +1,6 @@
 """One calibration session: samples through the gates into the fit, provisional solves, the finish.
 
-    s = Session(cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto")
+    s = Session(cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto", hold=False)
     s.sample(sx, sy, sz)           # each decimated sample (integer boxcar sums), through gates.py
     s.tick(now_ms, diff)           # provisional solve every solve_every_s
     s.ready()                      # coverage and predicted error reached
@@ -43,8 +43,10 @@ CLIP_FRACTION = 200   # more than 1 in 200 samples clipped refuses the calibrati
 
 
 class Session:
-    def __init__(self, cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto"):
+    def __init__(self, cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto", hold=False):
         self.cfg = cfg
+        # hold: finished by the operator (finish-cal, the button) or at max_cal_s, never at `ready`
+        self.hold = hold
         self.kind = kind if prior is not None else FULL   # no calibration in force: only a full one
         self.window = window
         # nT per sum unit, per axis
@@ -212,6 +214,8 @@ class Session:
             "removed": g.removed,
             "clipped": self.clipped,
             "ready": self.ready(),
+            "dir": g.last_direction(),
+            "hold": self.hold,
         }
 
     def cancel(self):

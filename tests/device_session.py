@@ -1,6 +1,7 @@
 """A firmware on the simulated handheld, driven line by line without a pty (the fault matrix's tests).
 
     w, dev = boot(tmp_path, "micropython", seconds=30.0, motion="stationary", fault=(None, None))
+    w, dev = configured(tmp_path, "hand", 45.0, auto_finish=False)   # in-process, the handheld's config
     reply = ask(w, dev, "status")            # the reply dict; ask_all: (reply, every JSON line)
     events(w, "fault", since)                # events by name from line index `since`
 """
@@ -21,6 +22,19 @@ def boot(tmp_path, kind="cpython", seconds=30.0, seed=11, motion="stationary", *
     w = make_world(serial=None, motion=motion, seconds=seconds, seed=seed, **scenario)
     dev = start_device(w, str(tmp_path), kind=kind)
     dev.run_until(0.3)
+    return w, dev
+
+
+def configured(tmp_path, motion, seconds, **cfg):
+    """The firmware in this process on a 2000 SPS handheld, its config the scenario's
+    (handheld_config) with `cfg` over it; booted for 0.5 s."""
+    from desktop.devicesim.procedure import handheld_config
+    from desktop.devicesim.runners import write_config
+
+    w = make_world(serial=None, motion=motion, seconds=seconds, seed=4, motion_seed=5, rate=2000)
+    write_config(str(tmp_path), **handheld_config(w.scenario), **cfg)
+    dev = start_device(w, str(tmp_path), kind="cpython")
+    dev.run_until(0.5)
     return w, dev
 
 

@@ -79,7 +79,7 @@ def test_calibrate_auto_then_pull_cal_agrees_with_a_numpy_fit(tmp_path):
         progress = [line for line in out.splitlines() if "(needs" in line and "predicted error" in line]
         verified = [line for line in out.splitlines() if line.startswith("verification:")]
         assert "coverage" in out and "READY" in out                   # progress lines, piped
-        assert "+X" in out and "-Z" in out                             # the coverage map
+        assert "+X" in out and "-Z" in out and "# full (24 samples)" in out   # the coverage map, its legend
         assert "calibration done: field" in out and "saved, in force" in out and "replaced: no calibration" in out
         assert "full calibration" in out
         # auto-finish comes at a provisional solve (every solve_every_s = 5 s); a hand at ~1 rev/s is
@@ -364,11 +364,11 @@ def test_line_reader_keeps_protocol_lines_and_counts_the_rest():
 
 
 def test_cell_directions_are_the_cells_of_shared_coverage():
-    from desktop.cli._show import cell_directions
+    from desktop.views.sphere import cell_centres
     from shared.coverage import Coverage
 
     for edge in (1, 3, 4, 6):
         cov = Coverage(edge)
-        dirs = cell_directions(edge)
+        dirs = cell_centres(edge)
         assert len(dirs) == cov.n_cells
         assert all(cov.cell(*d) == i and math.isclose(sum(c * c for c in d), 1.0) for i, d in enumerate(dirs))

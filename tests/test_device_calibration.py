@@ -17,6 +17,7 @@ from desktop.devicesim.runners import start_device, write_config
 from desktop.devicesim.world import make_world
 from shared import codes
 from tests.device_bounds import spin_ptp_bound
+from tests.device_session import configured
 from tests.interpreters import INTERPRETERS, float_eps, heap_bytes, need
 
 # Auto-finish is decided at provisional solves, every solve_every_s = 5 s from the press; a
@@ -52,11 +53,7 @@ def test_full_calibration_cycle_on_each_interpreter(name, tmp_path):
 
 
 def _device(tmp_path, motion, seconds, **cfg):
-    w = make_world(serial=None, motion=motion, seconds=seconds, seed=4, motion_seed=5, rate=2000)
-    write_config(str(tmp_path), **handheld_config(w.scenario), **cfg)
-    dev = start_device(w, str(tmp_path), kind="cpython")
-    dev.run_until(0.5)
-    return w, dev
+    return configured(tmp_path, motion, seconds, **cfg)
 
 
 def _last_cal(w):

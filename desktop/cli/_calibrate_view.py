@@ -9,14 +9,15 @@ import sys
 import time
 
 
-class Lines:
-    """Not a terminal: one line per progress event."""
-
-    wants_map = False
+class _Guide:
+    """What both views tell the operator besides the figures: the turning watch and the largest gap."""
 
     def __init__(self, cfg):
+        from desktop.views.coverage_text import TurnWatch
+
         self.cfg = cfg
         self.start = time.monotonic()
+        self.watch = TurnWatch()
 
     def __enter__(self):
         return self
@@ -24,8 +25,40 @@ class Lines:
     def __exit__(self, *exc):
         return False
 
+    def observe(self, ev, coverage):
+        """(seconds since the start, the not-turning warning or None, the gap's line or None)."""
+        from desktop.views.coverage_text import guidance
+
+        t = time.monotonic() - self.start
+        self.watch.add(t, ev.get("dir"), ev.get("coverage") or 0.0)
+        gap = guidance(coverage["counts"], coverage["cells_per_edge"]) if coverage else None
+        return t, None if ev.get("ready") else self.watch.warning(), gap
+
+
+class Lines(_Guide):
+    """Not a terminal: one line per progress event; the largest gap when it changes, a warning
+    when the sensor is not turning (again every WARN_EVERY events while it lasts)."""
+
+    wants_map = True
+    WARN_EVERY = 5
+
+    def __init__(self, cfg):
+        super().__init__(cfg)
+        self.said_gap = None
+        self.warned = 0
+
     def update(self, ev, coverage):
-        print("%6.1f s  %s" % (time.monotonic() - self.start, progress_line(ev, self.cfg)), flush=True)
+        t, warning, gap = self.observe(ev, coverage)
+        print("%6.1f s  %s" % (t, progress_line(ev, self.cfg)), flush=True)
+        if gap and gap != self.said_gap:
+            self.said_gap = gap
+            print("         %s" % gap, flush=True)
+        if warning:
+            if self.warned % self.WARN_EVERY == 0:
+                print("         %s" % warning, flush=True)
+            self.warned += 1
+        else:
+            self.warned = 0
 
 
 def progress_line(ev, cfg, sep="  "):
@@ -35,8 +68,10 @@ def progress_line(ev, cfg, sep="  "):
         cfg["target_error_nt"], "  READY" if ev.get("ready") else "")
 
 
-class Board:
-    """A terminal: progress bar, figures and the coverage map, redrawn in place (rich)."""
+class Board(_Guide):
+    """A terminal: progress bar, figures and the coverage map, redrawn in place (rich).
+
+    The map's glyphs tell its cells apart without colour (NO_COLOR, which rich honours)."""
 
     wants_map = True
 
@@ -44,7 +79,7 @@ class Board:
         from rich.console import Console
         from rich.live import Live
 
-        self.cfg = cfg
+        super().__init__(cfg)
         self.auto = auto
         self.live = Live(console=Console(), refresh_per_second=4)
 
@@ -61,6 +96,7 @@ class Board:
         from rich.table import Table
         from rich.text import Text
 
+        _t, warning, gap = self.observe(ev, coverage)
         cfg = self.cfg
         cov = ev.get("coverage") or 0.0
         bar = Table.grid(padding=(0, 1))
@@ -71,30 +107,33 @@ class Board:
                  Text("refused: turning too fast %d, disturbance %d, cell full %d; removed %d" % (
                      ev.get("rej_rate", 0), ev.get("rej_dist", 0), ev.get("rej_cap", 0), ev.get("removed", 0)),
                      style="dim")]
+        if warning:
+            parts.append(Text(warning, style="bold red"))
         if coverage:
-            parts.append(coverage_map(coverage["counts"], coverage["cells_per_edge"], cfg["cell_cap"]))
+            parts.append(coverage_map(coverage["counts"], coverage["cells_per_edge"], cfg["cell_cap"], ev.get("dir")))
+        if gap:
+            parts.append(Text(gap, style="bold"))
         parts.append(Text("waiting for the firmware to finish by itself" if self.auto else
                           "f / Enter: finish    c / Esc: cancel", style="italic"))
         self.live.update(Group(*parts))
 
 
-def coverage_map(counts, edge, cap):
-    """The six cube faces of cells, coloured by how full each is (grey empty, yellow, green at the cap)."""
+def coverage_map(counts, edge, cap, now=None):
+    """The equal-area map (desktop/views/coverage_text.py): its glyphs, each coloured, and the legend."""
     from rich.text import Text
 
-    from desktop.cli._show import FACES, coverage_rows
+    from desktop.views.coverage_text import STYLES, axis_labels, legend, map_rows, row_label
 
+    grid = map_rows(counts, edge, cap, now)
     text = Text()
-    text.append("".join(f.ljust(2 * edge + 1) for f in FACES).rstrip() + "\n", style="bold")
-    for row in coverage_rows(counts, edge, cap):
-        for cell in row:
-            if cell is None:
-                text.append(" ")
-            else:
-                fill = cell[1]
-                text.append("\u2588\u2588", style="grey30" if fill == 0 else "green" if fill >= 1 else
-                            "yellow" if fill >= 0.5 else "dark_orange")
+    text.append(axis_labels() + "\n", style="bold")
+    for r, row in enumerate(grid):
+        text.append(row_label(r, len(grid)), style="bold")
+        for glyph in row:
+            text.append(glyph, style=STYLES[glyph])
         text.append("\n")
+    for line in legend(cap):
+        text.append(line + "\n", style="dim")
     return text
 
 

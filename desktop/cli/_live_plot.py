@@ -2,7 +2,9 @@
 
 Not a command (COMMANDS does not list it). The cells are shared/coverage.py's,
 counted from the directions of the corrected field (raw: of the readings,
-whose offset is small beside the Earth's field).
+whose offset is small beside the Earth's field), on the same equal-area map as
+`calibrate` and `report` draw (desktop/views/figures.py), the sensor's
+direction now marked and the largest gap named.
 """
 
 import os
@@ -24,7 +26,7 @@ class NoDisplay(Exception):
 class LivePlot:
     """A window redrawn as samples come, or (path) a PNG rewritten as they come and at the end."""
 
-    def __init__(self, cells, scale, kind, path=None):
+    def __init__(self, cells, scale, kind, path=None, cap=None):
         import matplotlib
         if path is not None:
             matplotlib.use("agg")      # a file needs no display, and must not open a window
@@ -32,13 +34,13 @@ class LivePlot:
         if path is None and plt.get_backend().lower() in FILE_BACKENDS:
             raise NoDisplay("matplotlib has no display to open a window on (backend %s)" % plt.get_backend())
 
-        from desktop.cli._show import cell_directions
         from shared.coverage import Coverage
 
         self.plt = plt
         self.scale = scale
         self.coverage = Coverage(cells)
-        self.cells = cell_directions(cells)
+        self.now = None
+        self.cap = cap or 1     # the firmware's cell_cap: a cell drawn full holds what a calibration takes
         self.t, self.b, self.points = [], [], []
         self.next_draw = 0.0
         self.path = path
@@ -47,7 +49,7 @@ class LivePlot:
         self.fig = plt.figure("fluxcal monitor", figsize=(13, 4.5))
         self.ax_b = self.fig.add_subplot(1, 3, 1)
         self.ax_cloud = self.fig.add_subplot(1, 3, 2, projection="3d")
-        self.ax_cov = self.fig.add_subplot(1, 3, 3, projection="3d")
+        self.ax_cov = self.fig.add_subplot(1, 3, 3)
         self.kind = kind
         self.closed = False
         self.fig.canvas.mpl_connect("close_event", self._on_close)
@@ -66,6 +68,7 @@ class LivePlot:
             d = ev.get("b") or p
             if any(d):
                 self.coverage.add_to(self.coverage.cell(*d))
+                self.now = d
         now = time.monotonic()
         if now >= self.next_draw:
             self.next_draw = now + (REDRAW_S if self.path is None else SAVE_S)
@@ -105,11 +108,9 @@ class LivePlot:
         ax.set_title("raw readings (nT)")
         ax = self.ax_cov
         ax.clear()
-        counts = self.coverage.counts
-        seen = [d for d, n in zip(self.cells, counts) if n]
-        empty = [d for d, n in zip(self.cells, counts) if not n]
-        for group, colour in ((seen, "tab:green"), (empty, "lightgrey")):
-            if group:
-                ax.scatter(*zip(*group), s=60, c=colour, depthshade=False)
-        ax.set_box_aspect((1, 1, 1))
-        ax.set_title("sphere covered: %.0f %% of cells" % (100 * self.coverage.fraction()))
+        from desktop.views.figures import coverage_title, draw_coverage
+
+        handles = draw_coverage(ax, self.coverage.counts, self.coverage.edge, self.cap, self.now)
+        ax.set_xlabel("longitude about Z (equal-area map)")
+        ax.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.08), fontsize=7, ncol=2)
+        ax.set_title("sphere " + coverage_title(self.coverage.counts), fontsize=9)

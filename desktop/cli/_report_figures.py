@@ -3,7 +3,8 @@
     write_figures(folder, h, corrected, t, cal, counts, edge) -> [(file name, title)]
 
 h, corrected: (N, 3) raw and corrected readings, nT; t: (N,) s or None (samples numbered); cal: a
-Calibration taking nT; counts: shared/coverage.py's cell counts.
+Calibration taking nT; counts: shared/coverage.py's cell counts. The sphere's maps and the rate
+plot are desktop/views/figures.py's.
 """
 
 import os
@@ -19,12 +20,21 @@ def write_figures(folder, h, corrected, t, cal, counts, edge):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from desktop.views.figures import coverage_figure, error_figure, rate_figure
+    from desktop.views.verdict import CELL_CAP
+
     out = []
-    for name, title, draw in (("ellipsoid.png", "Raw ellipsoid and corrected sphere", _shapes),
-                              ("magnitude.png", "|B| before and after", _magnitude),
-                              ("coverage.png", "Coverage of the sphere", _coverage),
-                              ("residuals.png", "Residuals |h_c| - field", _residuals)):
-        fig = draw(plt, h, corrected, t, cal, counts, edge)
+    for name, title, draw in (
+            ("coverage.png", "Coverage of the sphere", lambda: coverage_figure(plt, counts, edge, CELL_CAP)),
+            ("error_map.png", "Error on the sphere: |h_c| - field by direction",
+             lambda: error_figure(plt, corrected, cal.field)),
+            ("rate.png", "Residual against rotation rate",
+             lambda: rate_figure(plt, corrected, cal.field, np.arange(len(h), dtype=float) if t is None else t,
+                                 t is not None)),
+            ("ellipsoid.png", "Raw ellipsoid and corrected sphere", lambda: _shapes(plt, h, corrected, cal)),
+            ("magnitude.png", "|B| before and after", lambda: _magnitude(plt, h, corrected, t)),
+            ("residuals.png", "Residuals |h_c| - field", lambda: _residuals(plt, corrected, cal))):
+        fig = draw()
         fig.savefig(os.path.join(folder, name), dpi=100)
         plt.close(fig)
         out.append((name, title))
@@ -38,7 +48,7 @@ def _surface(centre, shape, n=24):
     return np.einsum("ij,jkl->ikl", shape, sphere) + np.asarray(centre)[:, None, None]
 
 
-def _shapes(plt, h, corrected, t, cal, counts, edge):
+def _shapes(plt, h, corrected, cal):
     step = max(1, len(h) // MAX_POINTS)
     fig = plt.figure(figsize=(11, 5))
     m = np.asarray(cal.matrix)
@@ -60,7 +70,7 @@ def _shapes(plt, h, corrected, t, cal, counts, edge):
     return fig
 
 
-def _magnitude(plt, h, corrected, t, cal, counts, edge):
+def _magnitude(plt, h, corrected, t):
     fig, (a, b) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
     raw = np.linalg.norm(h, axis=1)
     mag = np.linalg.norm(corrected, axis=1)
@@ -76,24 +86,7 @@ def _magnitude(plt, h, corrected, t, cal, counts, edge):
     return fig
 
 
-def _coverage(plt, h, corrected, t, cal, counts, edge):
-    from desktop.cli._show import FACES
-
-    grid = np.asarray(counts, dtype=float).reshape(6, edge, edge)   # [face, i, j]
-    fig, axes = plt.subplots(1, 6, figsize=(12, 2.8))
-    top = max(1.0, grid.max())
-    for face, ax in enumerate(axes):
-        im = ax.imshow(grid[face].T, origin="lower", cmap="Greens", vmin=0, vmax=top)
-        ax.set_title(FACES[face])
-        ax.set_xticks([])
-        ax.set_yticks([])
-    fig.colorbar(im, ax=list(axes), shrink=0.8, label="samples per cell")
-    seen = int((grid > 0).sum())
-    fig.suptitle("cube-face cells visited: %d of %d (%.0f %%)" % (seen, grid.size, 100.0 * seen / grid.size))
-    return fig
-
-
-def _residuals(plt, h, corrected, t, cal, counts, edge):
+def _residuals(plt, corrected, cal):
     resid = np.linalg.norm(corrected, axis=1) - cal.field
     fig, ax = plt.subplots(figsize=(7, 4.5))
     ax.hist(resid, bins=60, color="tab:blue")

@@ -1,4 +1,4 @@
-"""Text views shared by the device commands: a calibration's figures, ages, the coverage map.
+"""Text views shared by the device commands: a calibration's figures and ages.
 
 Not a command (COMMANDS does not list it).
 """
@@ -11,7 +11,6 @@ SOURCES = {
     "bak": "recovered from the backup cal.bak",
     "new": "made or set since boot",
 }
-FACES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
 
 
 def format_age(seconds):
@@ -72,58 +71,3 @@ def calibration_lines(cal, status=None):
         made.append("firmware %s" % meta["firmware"])
     lines.append("made " + ", ".join(made))
     return lines
-
-
-def cell_directions(edge):
-    """Unit vectors to the centres of shared/coverage.py's 6 n^2 cells, in its cell order."""
-    import math
-
-    tans = [math.tan(math.radians(-45.0 + 90.0 * (k + 0.5) / edge)) for k in range(edge)]
-    # per face: the axis it is centred on, its sign, and the axes of its cell coordinates i, j
-    faces = ((0, 1, 1, 2), (0, -1, 1, 2), (1, 1, 0, 2), (1, -1, 0, 2), (2, 1, 0, 1), (2, -1, 0, 1))
-    out = []
-    for major, sign, pi, qj in faces:
-        for i in range(edge):
-            for j in range(edge):
-                v = [0.0, 0.0, 0.0]
-                v[major], v[pi], v[qj] = float(sign), tans[i], tans[j]
-                n = math.sqrt(sum(c * c for c in v))
-                out.append([c / n for c in v])
-    return out
-
-
-def coverage_rows(counts, edge, cap, marks=" .:o#"):
-    """The sphere's cube-face cells (shared/coverage.py) as text rows: six n x n faces side by side.
-
-    Each face is drawn with its second cell coordinate upwards; a cell shows
-    how full it is, from `marks[0]` (empty) to `marks[-1]` (at the cap).
-    Returns rows of (mark, fill 0..1), None between faces.
-    """
-    cap = max(1, cap or max(counts) or 1)
-    rows = []
-    for j in reversed(range(edge)):
-        row = []
-        for face in range(6):
-            for i in range(edge):
-                fill = min(1.0, counts[(face * edge + i) * edge + j] / cap)
-                row.append((_mark(fill, marks), fill))
-            row.append(None)   # gap between faces
-        rows.append(row[:-1])
-    return rows
-
-
-def _mark(fill, marks):
-    if fill <= 0:
-        return marks[0]
-    if fill >= 1:
-        return marks[-1]
-    return marks[1 + int(fill * (len(marks) - 2))]
-
-
-def coverage_text(counts, edge, cap):
-    """The coverage map as plain text lines (for a log, or a terminal without colours)."""
-    head = "".join(f.ljust(2 * edge + 1) for f in FACES).rstrip()
-    out = [head]
-    for row in coverage_rows(counts, edge, cap):
-        out.append("".join(" " if c is None else c[0] * 2 for c in row))
-    return out

@@ -1,15 +1,21 @@
-"""fluxcal calibrate [--quick|--full] [--auto]: run a calibration on the handheld, watched and steered from the laptop.
+"""fluxcal calibrate [--quick|--full] [--auto] [--replace]: run a calibration on the handheld, watched and steered from the laptop.
 
 Starts a session (`start-cal`), shows the firmware's progress (`cal` events,
-once a second) and the coverage of the sphere (`get-coverage`), and ends it:
-f or Enter finishes (`finish-cal`), c, q or Esc cancels (`cancel-cal`, also on
-Ctrl-C). The firmware finishes by itself once coverage and predicted error
-suffice (config auto_finish); --auto waits for that, sending finish-cal itself
-at `ready` when the device's auto_finish is off. Prints the result, its
-figures and the calibration it replaced; a failed or cancelled calibration
-leaves the previous one in force and exits 1.
+once a second), the coverage of the sphere (`get-coverage`) on an equal-area
+map with the largest gap named and a warning when the sensor is not turning
+(desktop/views/), and ends it: f or Enter finishes (`finish-cal`), c, q or Esc
+cancels (`cancel-cal`, also on Ctrl-C). Without --auto the session is started
+with `hold`, so the firmware waits for the operator's key even once it is ready
+(at max_cal_s it ends any session); --auto waits for the firmware to finish by
+itself, sending finish-cal itself at `ready` when the device's auto_finish is
+off. Prints the result, its figures and the calibration it replaced. A full
+calibration whose predicted error is worse than the one it replaced is not
+kept without a word: the operator confirms it (a terminal), or --replace keeps
+it; otherwise the previous one is sent back (`set-cal`) and the command exits 1.
+A failed or cancelled calibration leaves the previous one in force and exits 1.
 """
 
+import json
 import sys
 import time
 
@@ -31,20 +37,29 @@ def add_arguments(p):
                            "ends quick when a calibration is in force and the coverage is partial)")
     p.add_argument("--auto", action="store_true",
                    help="take no keys: wait until the firmware finishes by itself (coverage and error reached)")
+    p.add_argument("--replace", action="store_true",
+                   help="keep the new calibration even when its predicted error is worse than the one it replaces")
     p.add_argument("--verify", type=float, default=0.0, metavar="S",
                    help="afterwards, S seconds of corrected |B| while you keep turning: its peak-to-peak and std")
     add_port_arguments(p)
 
 
+KIND_WORDS = {
+    codes.QUICK: "a quick re-calibration (the shape of the previous one kept, offsets and gains fitted anew)",
+    codes.RESHAPED: "a reshaped calibration (a quick re-calibration whose samples showed the sensor's shape had"
+                    " changed, so all nine parameters were fitted anew)",
+}
+
+
 def run(args):
     from desktop.cli._calibrate_view import Keys, Lines, Board
-    from desktop.cli._show import calibration_lines, coverage_text, fit_figures
+    from desktop.cli._show import calibration_lines, fit_figures
 
     with connected(args) as dev:
         cfg = device_config(dev)
         previous = dev.ask("get-cal")["cal"]
         status = dev.ask("status")
-        dev.ask("start-cal quick" if args.quick else "start-cal full" if args.full else "start-cal")
+        _start(dev, "quick" if args.quick else "full" if args.full else "", hold=not args.auto)
         try:
             view = Board(cfg, args.auto) if sys.stdout.isatty() else Lines(cfg)
             with view, Keys(enabled=not args.auto) as keys:
@@ -53,19 +68,20 @@ def run(args):
             quietly(dev, "cancel-cal")     # leave no session running; a dead line is no news
             raise
         cov = dev.ask("get-coverage")
-        verify = _verify(dev, args.verify, cfg) if result.get("state") == codes.DONE and args.verify > 0 else None
-    if not sys.stdout.isatty():
-        print("\n".join(coverage_text(cov["counts"], cov["cells_per_edge"], cfg["cell_cap"])))
-    if result.get("state") == codes.CANCELLED:
-        raise CommandError("calibration cancelled; the previous calibration stays in force")
-    if result.get("state") != codes.DONE:
-        raise CommandError("calibration failed (%s): %s; the previous calibration stays in force"
-                           % (result.get("reason"), result.get("msg")))
-    print("calibration done: %s; %s; %s" % (fit_figures(result),
-                                            "saved, in force" if result.get("saved") else
-                                            "in force but NOT saved: %s" % result.get("save_error"),
-                                            "a quick re-calibration" if result.get("kind") == codes.QUICK else
-                                            "%s calibration" % result.get("kind", codes.FULL)))
+        if not sys.stdout.isatty():
+            _print_map(cov, cfg, view)
+        if result.get("state") == codes.CANCELLED:
+            raise CommandError("calibration cancelled; the previous calibration stays in force")
+        if result.get("state") != codes.DONE:
+            raise CommandError("calibration failed (%s): %s; the previous calibration stays in force"
+                               % (result.get("reason"), result.get("msg")))
+        print("calibration done: %s; %s; %s" % (fit_figures(result),
+                                                "saved, in force" if result.get("saved") else
+                                                "in force but NOT saved: %s" % result.get("save_error"),
+                                                KIND_WORDS.get(result.get("kind"),
+                                                               "%s calibration" % result.get("kind", codes.FULL))))
+        _keep_or_restore(dev, result, previous, args)
+        verify = _verify(dev, args.verify, cfg) if args.verify > 0 else None
     if verify:
         print("verification: %d samples of corrected |B| over %.1f s: peak-to-peak %.3f nT, std %.3f nT" % verify)
     if previous is None:
@@ -75,6 +91,66 @@ def run(args):
         for line in calibration_lines(previous, status):
             print("  " + line)
     return 0
+
+
+def _start(dev, kind, hold):
+    """start-cal KIND [hold]; a firmware that does not know `hold` gets a plain start-cal, said once."""
+    from desktop.link import DeviceError
+
+    plain = " ".join(w for w in ("start-cal", kind) if w)
+    try:
+        dev.ask(plain + " hold" if hold else plain)
+    except DeviceError as exc:
+        if not hold or exc.code != codes.BAD_ARGUMENT:
+            raise
+        print("note: this firmware finishes by itself when ready (it does not know `hold`): deploy the"
+              " current one for a session that waits for your key", flush=True)
+        dev.ask(plain)
+
+
+def _print_map(cov, cfg, view):
+    from desktop.views.coverage_text import guidance, map_lines
+
+    counts, edge = cov["counts"], cov["cells_per_edge"]
+    print("\n".join(map_lines(counts, edge, cfg["cell_cap"])))
+    print(guidance(counts, edge))
+
+
+def worse_than_previous(result, previous):
+    """(new, previous) predicted errors, nT, when a full calibration's is worse than the one it
+    replaced; else None. A quick one was already compared with it by the firmware (not_better)."""
+    if previous is None or result.get("kind") != codes.FULL:
+        return None
+    new = result.get("predicted_error")
+    old = (previous.get("diagnostics") or {}).get("predicted_error")
+    if new is None or old is None or not new > old:
+        return None
+    return new, old
+
+
+def _keep_or_restore(dev, result, previous, args):
+    """A worse full calibration stays only with --replace or the operator's yes; else the previous is sent back."""
+    from desktop.link import DeviceError
+
+    worse = worse_than_previous(result, previous)
+    if worse is None:
+        return
+    said = ("the new calibration's predicted error %.3f nT is worse than the %.3f nT of the one it replaced"
+            % worse)
+    if args.replace:
+        print("warning: %s; kept (--replace)" % said)
+        return
+    if not args.auto and sys.stdin is not None and sys.stdin.isatty() and sys.stdout.isatty():
+        answer = input("%s. Keep the new one? [y/N] " % said[0].upper() + said[1:])
+        if answer.strip().lower() in ("y", "yes"):
+            return
+    try:
+        dev.ask("set-cal " + json.dumps(previous), timeout=max(dev.timeout, 10.0))
+    except DeviceError as exc:
+        raise CommandError("%s, and the previous one could not be put back (%s): the new one stays in force"
+                           % (said, exc))
+    raise CommandError("%s: the previous calibration is back in force (set-cal); fluxcal calibrate --replace "
+                       "keeps a worse one" % said)
 
 
 def _follow(dev, cfg, auto, view, keys):

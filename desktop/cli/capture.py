@@ -6,6 +6,10 @@ survey_hz. For the duration of the capture survey_hz is set to the sample rate
 see is recorded as it is (a 0.1 s mean of vectors would shrink |B| while the
 sensor turns, docs/simulator.md), then set back. The file is a recording in
 desktop/formats/capture.py's format: `fluxcal fit FILE.npz -o CAL.json` fits it.
+It asks the operator to turn the sensor while it records, and says afterwards
+how much of the sphere the recording covers (the firmware's cells about zero,
+as a calibration without a previous one counts them), with a warning and the
+largest gap named when that is less than a calibration wants.
 """
 
 import sys
@@ -35,6 +39,8 @@ def run(args):
     with connected(args) as dev:
         cfg = device_config(dev)
         hz = args.hz or max(1, min(100, round(cfg["rate"] / cfg["decim"])))
+        print("recording %g s: turn the handheld slowly about every axis while it records" % args.seconds,
+              flush=True)
         stream_before = dev.ask("status")["stream"]
         if hz != cfg["survey_hz"]:
             dev.ask("config set survey_hz %d" % hz)
@@ -54,7 +60,20 @@ def run(args):
     temps = [e["temp"] for e in events]
     print("wrote %s: %d samples over %.1f s at %d Hz, die %.2f..%.2f C; fit it with "
           "`fluxcal fit %s -o CAL.json`" % (args.output, len(events), t[-1], hz, min(temps), max(temps), args.output))
+    _say_coverage([e["c"] for e in events], nT_per_code(cfg), cfg)
     return 0
+
+
+def _say_coverage(codes_xyz, scale, cfg):
+    from desktop.views.verdict import coverage_counts, coverage_warning
+
+    h = [[c * k for c, k in zip(row, scale)] for row in codes_xyz]
+    counts = coverage_counts(h, cfg["cells"])
+    print("the recording covers %.0f %% of the sphere's %d cells"
+          % (100.0 * sum(1 for c in counts if c) / len(counts), len(counts)))
+    warning = coverage_warning(counts, cfg["cells"], cfg["min_coverage"])
+    if warning:
+        print(warning)
 
 
 def _record(dev, seconds, hz):

@@ -1,7 +1,14 @@
-"""fluxcal emulate [--runtime R] [--sensor S] [--flash DIR] [--bare] [--script FILE] [--seconds S]"""
+"""fluxcal emulate [--runtime R] [--sensor S] [--flash DIR] [--bare] [--operator MODE] [--script FILE] [--seconds S]
+
+--operator: what the virtual operator does from the start: follow (the LED: turn
+while it says "collecting", hold still otherwise), turn (turn the sensor by hand
+all the time, as an operator does during `fluxcal capture`), hold (keep it
+still). Keys and --script change it later.
+"""
 
 HELP = "a virtual handheld on a pseudo-terminal: the firmware on the simulated fluxgate, in real time"
 
+OPERATOR = {"follow": "follow", "turn": "hand", "hold": "hold"}     # --operator -> the operator's action
 KEYS = {"r": "hand", "h": "hold", "s": "spin", "f": "follow", "p": "press", "l": "long-press", "c": "power-cycle"}
 STATUS_S = 10.0
 
@@ -16,6 +23,9 @@ def add_arguments(p):
     p.add_argument("--seed", type=int, default=0, help="the sensor's errors")
     p.add_argument("--flash", help="the board's flash folder (default: a new temporary one)")
     p.add_argument("--bare", action="store_true", help="a board with an empty flash: only the REPL")
+    p.add_argument("--operator", choices=tuple(OPERATOR), default="follow",
+                   help="follow the LED (default: turn while it says collecting), turn all the time (a capture"
+                        " records a turning sensor), or hold still")
     p.add_argument("--script", help="the operator's actions: lines 'SECONDS ACTION [ARG]', e.g. '2 press'")
     p.add_argument("--seconds", type=float, help="stop after this long (default: until Ctrl-C or 'q')")
     p.add_argument("--speed", type=float, default=1.0,
@@ -96,6 +106,8 @@ def run(args):
     announced = None
     try:
         hh.start()
+        if args.operator != "follow":
+            hh.act(OPERATOR[args.operator])
         print("fluxcal emulate: virtual handheld (%s, %s) on %s" % (args.runtime, args.sensor, hh.port), flush=True)
         announced = announce_emulator(hh.port, args.runtime)    # `fluxcal status` without --port finds it
         if args.runtime != "cpython" and not args.bare:

@@ -81,7 +81,7 @@ def run(args):
             from desktop.cli._live_plot import LivePlot, NoDisplay
             try:
                 plot = LivePlot(cfg["cells"], scale, "raw" if args.raw else "corrected",
-                                path=None if args.plot is True else args.plot)
+                                path=None if args.plot is True else args.plot, cap=cfg.get("cell_cap"))
             except NoDisplay as exc:
                 raise CommandError("monitor --plot: %s; write the plot into a file instead: --plot FILE.png"
                                    % exc) from None

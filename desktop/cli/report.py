@@ -1,11 +1,15 @@
 """fluxcal report CAPTURE [--cal CAL.json] -o DIR: what a capture and its calibration look like.
 
-Writes DIR/summary.md and four PNGs (_report_figures.py): the raw readings on
+Prints the verdict first ("good to X nT over the sphere; to improve: ...",
+desktop/views/verdict.py) and a warning when the recording covers too little of
+the sphere; writes DIR/summary.md, which opens with the same lines, and six PNGs
+(_report_figures.py): the coverage of the sphere and the error by direction on
+equal-area maps, the residual against the rotation rate, the raw readings on
 their ellipsoid beside the corrected ones on their sphere, |B| before and
-after over time, the coverage of the sphere (shared/coverage.py's cells) and
-the histogram of the residuals |h_c| - field. Without --cal the capture is
-fitted here first (--method, the device's own streaming fit by default) as
-`fluxcal fit` fits it, with the same predicted error (desktop.methods.refusal).
+after over time, and the histogram of the residuals |h_c| - field. Without
+--cal the capture is fitted here first (--method, the device's own streaming
+fit by default) as `fluxcal fit` fits it, with the same predicted error
+(desktop.methods.refusal).
 """
 
 import os
@@ -13,7 +17,8 @@ import os
 from desktop.cli._errors import CommandError
 from desktop.cli._log_options import add_log_arguments, log_format
 
-HELP = "PNG plots and a markdown summary of a capture: raw ellipsoid vs corrected sphere, |B|, coverage, residuals"
+HELP = ("a verdict, PNG plots and a markdown summary of a capture: coverage and error on the sphere, residual"
+        " against rotation rate, raw ellipsoid vs corrected sphere, |B|, residuals")
 COVERAGE_MAX = 50000     # samples counted into the coverage cells
 CELLS = 4                # cells per cube-face edge: the firmware's default (96 cells)
 
@@ -34,6 +39,7 @@ def run(args):
 
     from desktop.cli._report_figures import write_figures
     from desktop.formats.readings import read_log
+    from desktop.views.verdict import coverage_counts, verdict
     from desktop.methods import correct_array
 
     h, t_log = read_log(args.capture, log_format(args))
@@ -48,12 +54,18 @@ def run(args):
         t = capture["t"]
     else:    # a log's time column, or (None) the figures number the samples
         t = t_log
-    counts = _coverage(corrected)
+    timed = t is not None
+    counts = coverage_counts(corrected, CELLS, COVERAGE_MAX)
+    head, warnings = verdict(cal.diagnostics.get("predicted_error"), counts, CELLS, corrected, cal.field,
+                             t if timed else np.arange(len(h), dtype=float), timed)
+    print(head)
+    for line in warnings:
+        print(line)
     figures = write_figures(args.output, h, corrected, t, cal, counts, CELLS)
     summary = os.path.join(args.output, "summary.md")
     try:
         with open(summary, "w") as fh:
-            fh.write(_summary(args.capture, h, corrected, t, cal, source, counts, figures, t is not None))
+            fh.write(_summary(args.capture, h, corrected, t, cal, source, counts, figures, timed, [head] + warnings))
     except OSError as exc:
         raise CommandError("%s: %s" % (summary, exc.strerror or exc))
     resid = np.linalg.norm(corrected, axis=1) - cal.field
@@ -97,18 +109,7 @@ def _calibration(args, h, capture):
     return cal, "fitted here (%s, %d samples)" % (args.method, len(h))
 
 
-def _coverage(corrected):
-    from shared.coverage import Coverage
-
-    cov = Coverage(CELLS)
-    step = max(1, len(corrected) // COVERAGE_MAX)
-    for x, y, z in corrected[::step].tolist():
-        if x or y or z:
-            cov.add(x, y, z)
-    return list(cov.counts)
-
-
-def _summary(path, h, corrected, t, cal, source, counts, figures, timed):
+def _summary(path, h, corrected, t, cal, source, counts, figures, timed, verdict_lines):
     import numpy as np
 
     raw = np.linalg.norm(h, axis=1)
@@ -132,7 +133,9 @@ def _summary(path, h, corrected, t, cal, source, counts, figures, timed):
                             ("observability", "observability", "%.3f"), ("rms", "fit residual rms", "%.3f nT")):
         if d.get(key) is not None:
             rows.append((label, fmt % d[key]))
-    out = ["# fluxcal report: `%s`" % os.path.basename(path), "", "| | |", "|---|---|"]
+    out = ["# fluxcal report: `%s`" % os.path.basename(path), ""]
+    out += ["**%s**" % verdict_lines[0], ""] + ["> %s" % w for w in verdict_lines[1:]]
+    out += ["", "| | |", "|---|---|"]
     out += ["| %s | %s |" % r for r in rows]
     out.append("")
     for name, title in figures:

@@ -51,18 +51,12 @@ def _plots(r, out_dir):
     paths.append(p)
     cov = r.get("coverage")
     if cov:
-        n = cov["cells_per_edge"]
-        counts = np.array(cov["counts"]).reshape(6, n, n)
-        fig, axes = plt.subplots(1, 6, figsize=(12, 2.6))
-        names = ("+x", "-x", "+y", "-y", "+z", "-z")
-        vmax = max(1, counts.max())
-        for i, a in enumerate(axes):
-            im = a.imshow(counts[i], vmin=0, vmax=vmax, cmap="viridis")
-            a.set_title("face %s" % names[i])
-            a.set_xticks([])
-            a.set_yticks([])
-        fig.colorbar(im, ax=list(axes), shrink=0.8, label="samples in the fit (cell cap)")
-        fig.suptitle("Coverage cells (6 x %d x %d), %.0f %% visited" % (n, n, 100 * cov["fraction"]))
+        from desktop.views.figures import coverage_figure, coverage_title
+        from desktop.views.verdict import CELL_CAP   # the firmware's cell_cap, which the demo keeps
+
+        fig = coverage_figure(plt, cov["counts"], cov["cells_per_edge"], CELL_CAP,
+                              title="Coverage cells of the calibration (6 x %d x %d): %s"
+                                    % (cov["cells_per_edge"], cov["cells_per_edge"], coverage_title(cov["counts"])))
         p = os.path.join(out_dir, "device_coverage.png")
         fig.savefig(p, dpi=110)
         plt.close(fig)

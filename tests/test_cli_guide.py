@@ -1,0 +1,74 @@
+"""The operator's guidance from the laptop, against firmware on a real pseudo-terminal in real time
+(tests/realtime.py): `calibrate` without --auto waits for the key past `ready`; its piped view names
+the gap and warns when the sensor is held still; `capture` of a still sensor warns.
+"""
+
+import os
+import select
+import subprocess
+import sys
+import time
+
+from tests.realtime import LiveHandheld
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+NO_HANG_S = 90      # any fluxcal run here that takes longer has hung
+
+
+def _lines_until(proc, want, count):
+    """stdout lines until `count` of them contain `want` (or the process ends): the lines read."""
+    lines, seen = [], 0
+    end = time.monotonic() + NO_HANG_S
+    while seen < count and time.monotonic() < end and proc.poll() is None:
+        if select.select([proc.stdout], [], [], 0.2)[0]:
+            line = proc.stdout.readline()
+            lines.append(line)
+            seen += want in line
+    return lines
+
+
+def test_calibrate_without_auto_waits_for_the_key_past_ready(tmp_path):
+    with LiveHandheld(tmp_path / "hh", motion="hand", seconds=70, seed=7) as hh:
+        proc = subprocess.Popen([sys.executable, "-m", "desktop", "calibrate", "--port", hh.port], cwd=ROOT,
+                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            # the firmware's auto_finish is on: without hold it would end at the first ready
+            # solve; held, it reports READY once a second until the key
+            # more READY lines than a solve period (solve_every_s, 5 s) holds: an unheld session ends
+            # at the first solve that finds it ready
+            lines = _lines_until(proc, "READY", 7)
+            assert proc.poll() is None, "".join(lines) + proc.stdout.read() + proc.stderr.read()
+            assert sum("READY" in line for line in lines) == 7
+            proc.stdin.write("f\n")
+            proc.stdin.flush()
+            out, err = proc.communicate(timeout=NO_HANG_S)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+        out = "".join(lines) + out
+        assert proc.returncode == 0, err
+        assert "calibration done" in out and "full calibration" in out, out
+        assert "largest gap:" in out and "@ the sensor now" in out, out
+
+
+def test_a_still_sensor_is_told_to_turn(tmp_path):
+    with LiveHandheld(tmp_path / "hh", motion="stationary", seconds=40, seed=3) as hh:
+        proc = subprocess.Popen([sys.executable, "-m", "desktop", "calibrate", "--port", hh.port], cwd=ROOT,
+                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            lines = _lines_until(proc, "NOT TURNING", 1)
+            proc.stdin.write("c\n")
+            proc.stdin.flush()
+            out, err = proc.communicate(timeout=NO_HANG_S)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+        out = "".join(lines) + out
+        assert "NOT TURNING: the sensor has pointed the same way for" in out, out
+        assert "calibration cancelled" in err
+        cap = subprocess.run([sys.executable, "-m", "desktop", "capture", "--seconds", "3", "-o",
+                              str(tmp_path / "still.npz"), "--port", hh.port],
+                             cwd=ROOT, capture_output=True, text=True, timeout=NO_HANG_S)
+        assert cap.returncode == 0, cap.stderr
+        assert "turn the handheld slowly about every axis" in cap.stdout
+        assert "WARNING: the recording covers 1 % of the sphere" in cap.stdout, cap.stdout
