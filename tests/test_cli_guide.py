@@ -27,45 +27,41 @@ def _lines_until(proc, want, count):
     return lines
 
 
+def _calibrate(port, want, count, key):
+    """fluxcal calibrate (piped) until `count` stdout lines contain `want`, then `key`:
+    (everything it printed, its stderr, its exit code, the lines seen before the key)."""
+    proc = subprocess.Popen([sys.executable, "-m", "desktop", "calibrate", "--port", port], cwd=ROOT,
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        lines = _lines_until(proc, want, count)
+        alive = proc.poll() is None
+        if alive:
+            proc.stdin.write(key)
+            proc.stdin.flush()
+        out, err = proc.communicate(timeout=NO_HANG_S)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return "".join(lines) + out, err, proc.returncode, (lines if alive else None)
+
+
 def test_calibrate_without_auto_waits_for_the_key_past_ready(tmp_path):
     with LiveHandheld(tmp_path / "hh", motion="hand", seconds=70, seed=7) as hh:
-        proc = subprocess.Popen([sys.executable, "-m", "desktop", "calibrate", "--port", hh.port], cwd=ROOT,
-                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        try:
-            # the firmware's auto_finish is on: without hold it would end at the first ready
-            # solve; held, it reports READY once a second until the key
-            # more READY lines than a solve period (solve_every_s, 5 s) holds: an unheld session ends
-            # at the first solve that finds it ready
-            lines = _lines_until(proc, "READY", 7)
-            assert proc.poll() is None, "".join(lines) + proc.stdout.read() + proc.stderr.read()
-            assert sum("READY" in line for line in lines) == 7
-            proc.stdin.write("f\n")
-            proc.stdin.flush()
-            out, err = proc.communicate(timeout=NO_HANG_S)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-        out = "".join(lines) + out
-        assert proc.returncode == 0, err
+        # the firmware's auto_finish is on: an unheld session ends at the first solve that finds it
+        # ready; held, it reports READY once a second until the key. More READY lines than a solve
+        # period (solve_every_s, 5 s) holds, then f:
+        out, err, rc, before = _calibrate(hh.port, "READY", 7, "f\n")
+        assert before is not None and sum("READY" in line for line in before) == 7, out + err
+        assert rc == 0, err
         assert "calibration done" in out and "full calibration" in out, out
         assert "largest gap:" in out and "@ the sensor now" in out, out
 
 
 def test_a_still_sensor_is_told_to_turn(tmp_path):
     with LiveHandheld(tmp_path / "hh", motion="stationary", seconds=40, seed=3) as hh:
-        proc = subprocess.Popen([sys.executable, "-m", "desktop", "calibrate", "--port", hh.port], cwd=ROOT,
-                                stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        try:
-            lines = _lines_until(proc, "NOT TURNING", 1)
-            proc.stdin.write("c\n")
-            proc.stdin.flush()
-            out, err = proc.communicate(timeout=NO_HANG_S)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-        out = "".join(lines) + out
+        out, err, rc, before = _calibrate(hh.port, "NOT TURNING", 1, "c\n")
         assert "NOT TURNING: the sensor has pointed the same way for" in out, out
-        assert "calibration cancelled" in err
+        assert rc == 1 and "calibration cancelled" in err
         cap = subprocess.run([sys.executable, "-m", "desktop", "capture", "--seconds", "3", "-o",
                               str(tmp_path / "still.npz"), "--port", hh.port],
                              cwd=ROOT, capture_output=True, text=True, timeout=NO_HANG_S)
