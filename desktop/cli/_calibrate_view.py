@@ -8,13 +8,14 @@ import select
 import sys
 import time
 
+# at import, before a session starts: a finish key read at once then comes within a few samples
+from desktop.views.coverage_text import TurnWatch, guidance
+
 
 class _Guide:
     """What both views tell the operator besides the figures: the turning watch and the largest gap."""
 
     def __init__(self, cfg):
-        from desktop.views.coverage_text import TurnWatch
-
         self.cfg = cfg
         self.start = time.monotonic()
         self.watch = TurnWatch()
@@ -27,8 +28,6 @@ class _Guide:
 
     def observe(self, ev, coverage):
         """(seconds since the start, the not-turning warning or None, the gap's line or None)."""
-        from desktop.views.coverage_text import guidance
-
         t = time.monotonic() - self.start
         self.watch.add(t, ev.get("dir"), ev.get("coverage") or 0.0)
         gap = guidance(coverage["counts"], coverage["cells_per_edge"]) if coverage else None
@@ -36,22 +35,28 @@ class _Guide:
 
 
 class Lines(_Guide):
-    """Not a terminal: one line per progress event; the largest gap when it changes, a warning
-    when the sensor is not turning (again every WARN_EVERY events while it lasts)."""
+    """Not a terminal: one line per progress event; the largest gap when the region it names
+    changes (else every SAY_EVERY events), a warning when the sensor is not turning (again
+    every WARN_EVERY events while it lasts)."""
 
     wants_map = True
     WARN_EVERY = 5
+    SAY_EVERY = 10
 
     def __init__(self, cfg):
         super().__init__(cfg)
         self.said_gap = None
+        self.since_said = 0
         self.warned = 0
 
     def update(self, ev, coverage):
         t, warning, gap = self.observe(ev, coverage)
         print("%6.1f s  %s" % (t, progress_line(ev, self.cfg)), flush=True)
-        if gap and gap != self.said_gap:
-            self.said_gap = gap
+        self.since_said += 1
+        where = gap and gap.split(" around ")[-1]      # the region, without its share
+        if gap and (where != self.said_gap or self.since_said >= self.SAY_EVERY):
+            self.said_gap = where
+            self.since_said = 0
             print("         %s" % gap, flush=True)
         if warning:
             if self.warned % self.WARN_EVERY == 0:

@@ -141,7 +141,7 @@ def _keep_or_restore(dev, result, previous, args):
         print("warning: %s; kept (--replace)" % said)
         return
     if not args.auto and sys.stdin is not None and sys.stdin.isatty() and sys.stdout.isatty():
-        answer = input("%s. Keep the new one? [y/N] " % said[0].upper() + said[1:])
+        answer = input("%s%s. Keep the new one? [y/N] " % (said[0].upper(), said[1:]))
         if answer.strip().lower() in ("y", "yes"):
             return
     try:
@@ -162,6 +162,16 @@ def _follow(dev, cfg, auto, view, keys):
     # its progress events come as much further apart
     silence = max(SILENCE_S, 2.5 * dev.timeout)
     while True:
+        # the keys first: a finish or cancel acts before the view's round trips (get-coverage)
+        key = keys.read()
+        try:
+            if key == "finish":
+                return dev.ask("finish-cal", timeout=max(dev.timeout, 10.0))["result"]
+            if key == "cancel":
+                dev.ask("cancel-cal")   # the `cal` event with state "cancelled" follows
+        except DeviceError as exc:
+            if exc.code != codes.NOT_CALIBRATING:   # it finished by itself meanwhile: its event is coming
+                raise
         ev = dev.next_event(0.1)
         if ev is not None and ev.get("ev") == codes.EV_CAL:
             last = time.monotonic()
@@ -173,15 +183,6 @@ def _follow(dev, cfg, auto, view, keys):
         elif time.monotonic() - last > silence:
             raise LinkError("no calibration progress from %s for %.0f s: it stopped, reset or was unplugged"
                             % (dev.port, silence))
-        key = keys.read()
-        try:
-            if key == "finish":
-                return dev.ask("finish-cal", timeout=max(dev.timeout, 10.0))["result"]
-            if key == "cancel":
-                dev.ask("cancel-cal")   # the `cal` event with state "cancelled" follows
-        except DeviceError as exc:
-            if exc.code != codes.NOT_CALIBRATING:   # it finished by itself meanwhile: its event is coming
-                raise
 
 
 def _verify(dev, seconds, cfg):
