@@ -30,7 +30,9 @@ def _lines_until(proc, want, count):
 def _calibrate(port, want, count, key):
     """fluxcal calibrate (piped) until `count` stdout lines contain `want`, then `key`:
     (everything it printed, its stderr, its exit code, the lines seen before the key)."""
-    proc = subprocess.Popen([sys.executable, "-m", "desktop", "calibrate", "--port", port], cwd=ROOT,
+    # --timeout 10: a session's start allocates and collects; on a loaded 2-core machine the
+    # in-process firmware's reply can take longer than the default 2 s
+    proc = subprocess.Popen([sys.executable, "-m", "desktop", "calibrate", "--timeout", "10", "--port", port], cwd=ROOT,
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         lines = _lines_until(proc, want, count)

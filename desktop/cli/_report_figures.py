@@ -31,9 +31,11 @@ def write_figures(folder, h, corrected, t, cal, counts, edge):
             ("rate.png", "Residual against rotation rate",
              lambda: rate_figure(plt, corrected, cal.field, np.arange(len(h), dtype=float) if t is None else t,
                                  t is not None)),
-            ("ellipsoid.png", "Raw ellipsoid and corrected sphere", lambda: _shapes(plt, h, corrected, cal)),
-            ("magnitude.png", "|B| before and after", lambda: _magnitude(plt, h, corrected, t)),
-            ("residuals.png", "Residuals |h_c| - field", lambda: _residuals(plt, corrected, cal))):
+            ("ellipsoid.png", "Raw ellipsoid and corrected sphere",
+             lambda: _shapes(plt, h, corrected, t, cal, counts, edge)),
+            ("magnitude.png", "|B| before and after", lambda: _magnitude(plt, h, corrected, t, cal, counts, edge)),
+            ("residuals.png", "Residuals |h_c| - field",
+             lambda: _residuals(plt, h, corrected, t, cal, counts, edge))):
         fig = draw()
         fig.savefig(os.path.join(folder, name), dpi=100)
         plt.close(fig)
@@ -48,7 +50,7 @@ def _surface(centre, shape, n=24):
     return np.einsum("ij,jkl->ikl", shape, sphere) + np.asarray(centre)[:, None, None]
 
 
-def _shapes(plt, h, corrected, cal):
+def _shapes(plt, h, corrected, t, cal, counts, edge):
     step = max(1, len(h) // MAX_POINTS)
     fig = plt.figure(figsize=(11, 5))
     m = np.asarray(cal.matrix)
@@ -70,7 +72,7 @@ def _shapes(plt, h, corrected, cal):
     return fig
 
 
-def _magnitude(plt, h, corrected, t):
+def _magnitude(plt, h, corrected, t, cal, counts, edge):
     fig, (a, b) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
     raw = np.linalg.norm(h, axis=1)
     mag = np.linalg.norm(corrected, axis=1)
@@ -86,7 +88,7 @@ def _magnitude(plt, h, corrected, t):
     return fig
 
 
-def _residuals(plt, corrected, cal):
+def _residuals(plt, h, corrected, t, cal, counts, edge):
     resid = np.linalg.norm(corrected, axis=1) - cal.field
     fig, ax = plt.subplots(figsize=(7, 4.5))
     ax.hist(resid, bins=60, color="tab:blue")

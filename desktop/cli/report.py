@@ -57,7 +57,7 @@ def run(args):
     timed = t is not None
     counts = coverage_counts(corrected, CELLS, COVERAGE_MAX)
     head, warnings = verdict(cal.diagnostics.get("predicted_error"), counts, CELLS, corrected, cal.field,
-                             t if timed else np.arange(len(h), dtype=float), timed)
+                             t if timed else np.arange(len(h), dtype=float), timed, fit_rms=cal.diagnostics.get("rms"))
     print(head)
     for line in warnings:
         print(line)

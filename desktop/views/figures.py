@@ -135,7 +135,8 @@ def error_figure(plt, corrected, field):
         for c in range(ERR_COLS):
             v = grid[r, c]
             if np.isfinite(v) and c % 2 == 0:
-                ax.text(-180 + (c + 0.5) * 360.0 / ERR_COLS, 1 - (r + 0.5) * 2.0 / ERR_ROWS, "%.2g" % v,
+                ax.text(-180 + (c + 0.5) * 360.0 / ERR_COLS, 1 - (r + 0.5) * 2.0 / ERR_ROWS,
+                        "%.0f" % v if abs(v) >= 10 else "%.2g" % v,
                         ha="center", va="center", fontsize=5)
     fig.colorbar(im, ax=ax, label="mean |h_c| - field (nT)")
     _frame(ax)

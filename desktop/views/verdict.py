@@ -22,7 +22,8 @@ from shared.coverage import Coverage
 MIN_COVERAGE = 0.5
 # the firmware's cell_cap (device/config.py): the samples a cell gives its fit; a map shows such a cell full
 CELL_CAP = 24
-# the firmware's max_rms_nt: a fit whose residual exceeds it is refused (device/acceptance.py)
+# the firmware's max_rms_nt: a fit whose residual exceeds it is refused (device/acceptance.py); the
+# verdict's bar for a calibration that does not say what its own samples left
 MAX_RMS_NT = 5.0
 # a gap worth naming when coverage is otherwise enough: a tenth of the sphere, a cap of 37 degrees
 # half-angle, over which the fit's shape is extrapolated rather than measured
@@ -50,8 +51,18 @@ def coverage_warning(counts, edge, min_coverage=MIN_COVERAGE):
             % (100 * share, 100 * min_coverage, guidance(counts, edge)))
 
 
-def verdict(predicted_nt, counts, edge, corrected, field, t, timed=True, min_coverage=MIN_COVERAGE):
-    """(the verdict line, [warning lines]) of a calibration on a recording."""
+def fits_elsewhere(rms, fit_rms, predicted_nt):
+    """True when the recording's residual rms is more than 3x what the calibration's own samples
+    left (its fit residual and its predicted error in quadrature): these samples are not like them.
+    Without the fit's residual, the firmware's acceptance limit (MAX_RMS_NT) decides."""
+    if fit_rms is None:
+        return rms > MAX_RMS_NT
+    return rms > 3.0 * np.hypot(fit_rms, predicted_nt or 0.0)
+
+
+def verdict(predicted_nt, counts, edge, corrected, field, t, timed=True, min_coverage=MIN_COVERAGE, fit_rms=None):
+    """(the verdict line, [warning lines]) of a calibration on a recording; fit_rms: the residual
+    rms of the samples the calibration was fitted to (its diagnostics' rms), nT."""
     share = sum(1 for c in counts if c) / float(len(counts))
     improve = []
     warnings = []
@@ -73,11 +84,12 @@ def verdict(predicted_nt, counts, edge, corrected, field, t, timed=True, min_cov
             improve.append("turn more slowly (|B| reads %.3f nT low at %.3g %s)"
                            % (-b, w90, "deg/s" if timed else "deg per sample"))
     rms = float(np.sqrt(np.mean((np.linalg.norm(corrected, axis=1) - field) ** 2)))
-    if rms > MAX_RMS_NT:
+    if fits_elsewhere(rms, fit_rms, predicted_nt):
         # the calibration does not fit these samples: unless the turn rate explains it (a slow
         # sensor turned fast), another sensor, iron near by or a field that moved
-        head = ("NOT good here: these samples are off by %.3f nT rms (a fit above %g nT is refused)%s"
-                % (rms, MAX_RMS_NT, "" if predicted_nt is None else
+        head = ("NOT good here: these samples are off by %.3f nT rms (%s)%s"
+                % (rms, "a fit above %g nT is refused" % MAX_RMS_NT if fit_rms is None else
+                   "its own samples: %.3f nT" % fit_rms, "" if predicted_nt is None else
                    "; the calibration predicted %.3f nT over the sphere" % predicted_nt))
         if slower is None or slower < 0.5 * rms:
             improve.append("recalibrate this sensor where it is used, away from iron")
