@@ -17,7 +17,7 @@ ALWAYS = {"v", "ok", "cmd", "state", "fault", "fault_code", "safe_mode", "errors
 HEALTH = {"adc_faults"}
 # a calibration in progress: its progress report
 PROGRESS = {"state", "kind", "gate_dps", "slow_down", "n", "seen", "coverage", "pred_nt", "rej_rate", "rej_dist",
-            "rej_cap", "removed", "clipped", "ready"}
+            "rej_cap", "removed", "clipped", "ready", "dir", "hold"}
 
 
 def test_survey_reply(tmp_path):

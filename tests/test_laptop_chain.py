@@ -8,7 +8,7 @@ fluxcal emulate --runtime micropython --bare   (a board with an empty flash, on 
 -> fluxcal calibrate --auto                      (the virtual operator follows the LED)
 -> fluxcal pull-cal                              (against a numpy reference fit of captured samples)
 -> fluxcal push-cal                              (round trip)
--> fluxcal capture, fluxcal fit offline
+-> fluxcal capture, fluxcal report, fluxcal fit offline   (the operator turning: --operator turn)
 -> fluxcal monitor                               (a spin: |B| within the noise and smearing bound)
 
 The operator is steered through emulate's standard input, as keys from a terminal would be.
@@ -42,8 +42,9 @@ def fluxcal(*args, timeout=120):
 
 def test_deploy_calibrate_monitor_capture_pull_push_from_the_laptop(tmp_path):
     need("micropython")
-    emu = subprocess.Popen([FLUXCAL, "emulate", "--runtime", "micropython", "--bare", "--seed", "3",
-                            "--flash", tmp_path / "flash"], cwd=ROOT, stdin=subprocess.PIPE,
+    # as the README: the operator turns the sensor all the time (--operator turn)
+    emu = subprocess.Popen([FLUXCAL, "emulate", "--runtime", "micropython", "--bare", "--operator", "turn",
+                            "--seed", "3", "--flash", tmp_path / "flash"], cwd=ROOT, stdin=subprocess.PIPE,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         first = emu.stdout.readline()
@@ -64,9 +65,13 @@ def test_deploy_calibrate_monitor_capture_pull_push_from_the_laptop(tmp_path):
         assert "calibration done" in out and "saved, in force" in out, out
         fluxcal("pull-cal", "-o", tmp_path / "device.json", "--port", port)
 
-        emu.stdin.write("r")                                           # turn it by hand from now on
-        emu.stdin.flush()
-        fluxcal("capture", "--seconds", 12, "-o", tmp_path / "capture.npz", "--port", port)
+        out = fluxcal("capture", "--seconds", 12, "-o", tmp_path / "capture.npz", "--port", port)
+        # turned while it recorded: more of the sphere than a calibration wants (50 %), no warning
+        covered = int(out.split("the recording covers ")[1].split(" %")[0])
+        assert covered >= 50 and "WARNING" not in out, out
+        out = fluxcal("report", tmp_path / "capture.npz", "--cal", tmp_path / "device.json", "-o", tmp_path / "rep")
+        assert out.startswith("good to ") and " nT over the sphere; to improve: " in out.splitlines()[0], out
+        assert "WARNING" not in out, out
         emu.stdin.write("s")                                           # the verification spin, 1 rev/s
         emu.stdin.flush()
         time.sleep(1.5)   # the hand's last fast turns leave the survey blocks (the world runs 0.25 s ahead)
