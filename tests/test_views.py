@@ -197,3 +197,24 @@ def test_a_worse_full_calibration_is_not_kept_without_a_word(capsys):
     dev = _FakeDevice()
     _keep_or_restore(dev, worse, previous, args)
     assert dev.asked == [] and "kept (--replace)" in capsys.readouterr().out
+
+
+def test_a_full_coverage_png_shows_its_cells():
+    """All 96 cells full: the map is not one block of colour; the cells' borders stand out."""
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from desktop.views.figures import coverage_figure
+
+    fig = coverage_figure(plt, [24] * 96, 4, 24)
+    fig.canvas.draw()
+    rgba = np.asarray(fig.canvas.buffer_rgba())
+    ax = fig.axes[0].get_window_extent()
+    h = rgba.shape[0]
+    inside = rgba[int(h - ax.y1) + 5:int(h - ax.y0) - 5, int(ax.x0) + 5:int(ax.x1) - 5, :3].reshape(-1, 3)
+    grey = np.round(inside.mean(axis=1))
+    full = np.mean(np.abs(grey - 0.3 * 255) < 20)          # the full cells' grey
+    borders = np.mean(grey > 200)                            # the white outlines
+    plt.close(fig)
+    assert full > 0.6 and borders > 0.02, (full, borders)

@@ -69,7 +69,8 @@ def draw_coverage(ax, counts, edge, cap, now=None):
     border[:, :-1] |= cells[:, 1:] != cells[:, :-1]
     border[:-1, :] |= cells[1:, :] != cells[:-1, :]
     overlay = np.zeros(cells.shape + (4,))
-    overlay[border, 3] = 0.8
+    overlay[border, 3] = 0.9
+    overlay[border & (level == 2), :3] = 1.0    # white on full cells, black elsewhere: every cell outlined
     ax.imshow(overlay, extent=(-180, 180, -1, 1), aspect="auto", interpolation="nearest")
     handles = [Patch(facecolor=GREYS["full"], edgecolor="k", label="full (%d samples)" % cap),
                Patch(facecolor=GREYS["some"], edgecolor="k", label="some samples"),
