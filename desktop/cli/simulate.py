@@ -14,7 +14,8 @@ def add_arguments(p):
     from desktop.sim.sensor import PRESETS
     p.add_argument("-o", "--output", required=True, metavar="CAPTURE.npz", help="capture file to write")
     p.add_argument("--sensor", default="mag649", choices=sorted(PRESETS),
-                   help="sensor preset (Mag649: 1 kHz bandwidth, Mag648: 5 Hz)")
+                   help="sensor preset (Mag649: 1 kHz bandwidth, Mag648: 5 Hz; paper: a Mag649 with the paper's "
+                        "uncalibrated errors, Table 2's 24,055 nT PTP)")
     p.add_argument("--motion", default="hand", choices=MOTIONS, help="operator motion")
     p.add_argument("--seconds", type=float, default=120.0, help="capture length, s (default 120)")
     p.add_argument("--rate", type=int, default=4000,
@@ -28,6 +29,10 @@ def add_arguments(p):
     p.add_argument("--seed", type=int, default=0, help="fixes the sensor (its errors), not the motion")
     p.add_argument("--motion-seed", type=int, default=1, help="varies the motion (and noise realisation)")
     p.add_argument("--bandwidth", type=float, default=None, help="override the sensor bandwidth, Hz")
+    p.add_argument("--poles", type=int, choices=(1, 2), default=1,
+                   help="the sensor's response: 1 first order (default), 2 two equal poles, same -3 dB bandwidth")
+    p.add_argument("--bandwidth-spread", type=float, default=0.0, metavar="SHARE",
+                   help="each axis' bandwidth drawn within +- this share of it (e.g. 0.03; default 0)")
     p.add_argument("--field", type=float, default=EARTH_NT, help="local field magnitude, nT (default %(default).0f)")
     p.add_argument("--inclination", type=float, default=INCLINATION_DEG, help="field inclination, degrees")
     p.add_argument("--declination", type=float, default=DECLINATION_DEG, help="field declination, degrees")
@@ -60,11 +65,13 @@ def scenario_from_args(args):
               inclination_deg=args.inclination, declination_deg=args.declination,
               drift=args.drift, gradient=args.gradient, dipole=dipole,
               temp_c=args.temp, temp_drift=args.temp_drift, gain=args.gain, ideal=args.ideal,
-              adc_noise=not args.no_adc_noise)
+              adc_noise=not args.no_adc_noise, poles=args.poles, bandwidth_spread=args.bandwidth_spread)
     if args.bandwidth is not None:
         if args.bandwidth <= 0:
             raise CommandError("--bandwidth must be positive (Hz)")
         kw["bandwidth"] = args.bandwidth
+    if not 0 <= args.bandwidth_spread < 0.5:
+        raise CommandError("--bandwidth-spread must be in [0, 0.5)")
     for name in ("noise", "pink", "rot_rate"):
         if kw[name] < 0:
             raise CommandError("--%s must not be negative" % name.replace("_", "-"))

@@ -51,6 +51,9 @@ class Scenario:
     noise : float              sensor white noise, nT rms per conversion
     pink : float               sensor 1/f noise, nT rms
     bandwidth : float or None  override the preset's bandwidth (None: the preset)
+    poles : int                the sensor's response: 1 first order, 2 two equal poles
+                               with the same -3 dB bandwidth
+    bandwidth_spread : float   each axis' bandwidth drawn within +- this share of it (from seed)
     ideal : bool               a perfect sensor and front end
     adc_noise : bool           the ADS1292's input-referred noise [DS §7.1]
     gain : int                 PGA gain of the field channels
@@ -78,7 +81,7 @@ class Scenario:
 
     DEFAULTS = dict(sensor="mag649", seed=0, motion="hand", motion_seed=1, seconds=120.0,
                     rate=4000, rot_rate=1.0, coverage=1.0, noise=0.1, pink=0.0,
-                    bandwidth="preset", ideal=False, adc_noise=True, gain=1, vref_4v=False,
+                    bandwidth="preset", poles=1, bandwidth_spread=0.0, ideal=False, adc_noise=True, gain=1, vref_4v=False,
                     field_nT=EARTH_NT, inclination_deg=INCLINATION_DEG, declination_deg=DECLINATION_DEG,
                     drift=0.0, gradient=0.0, dipole=None, temp_c=25.0, temp_drift=0.0,
                     temp_profile=None, vref_drift="seed", grid_rate="auto", dwell=0.002)
@@ -157,7 +160,8 @@ class Scenario:
         return {k: getattr(self, k) for k in self.DEFAULTS}
 
     def fluxgate(self):
-        over = {"noise_nT": self.noise, "pink_nT": self.pink}
+        over = {"noise_nT": self.noise, "pink_nT": self.pink, "poles": self.poles,
+                "bandwidth_spread": self.bandwidth_spread}
         if self.bandwidth != "preset":
             over["bandwidth_hz"] = self.bandwidth
         return Fluxgate(self.sensor, seed=self.seed, ideal=self.ideal, **over)

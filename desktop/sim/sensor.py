@@ -9,8 +9,9 @@ errors and offsets:
 T's rows are the unit axis directions (W1 = u1, W2 in the u1-u2 plane), S =
 diag(1 + s_i), o offsets (nT), k_s / k_o temperature coefficients of scale
 (ppm/C) and offset (nT/C), dT the temperature change since the calibration
-reference (25 C). Each axis then passes a first-order low-pass at the sensor
-bandwidth, white noise is added (nT rms per ADC conversion, see
+reference (25 C). Each axis then passes a low-pass at the sensor bandwidth
+(first order; or two equal real poles with the same -3 dB bandwidth, ``poles``: 2),
+optionally with per-axis bandwidths drawn within +-``bandwidth_spread``, white noise is added (nT rms per ADC conversion, see
 :meth:`Fluxgate.noise_grid_rms`), optional 1/f noise, and the output voltage
 (sensitivity V/nT) is attenuated by the front end (per-axis divider with its
 tolerance, plus an offset in volts) onto the ADS1292 input range.
@@ -21,7 +22,10 @@ temperature terms, the bandwidth and the front end, for a capture in time.
 
 Presets (:data:`PRESETS`) hold the paper's two sensors, Bartington Mag648
 (5 Hz bandwidth) and Mag649 (1 kHz); the errors are the paper's "typical values"
-(non-orthogonality < 1 degree, offset < 10 nT, scale < 0.5 %). The +-10 V for
+(non-orthogonality < 1 degree, offset < 10 nT, scale < 0.5 %). ``paper`` is a Mag649
+whose uncalibrated spin is as far from a sphere as the paper's in-situ recording (Table 2:
+24,055 nT PTP; the paper gives no breakdown of its errors): gains within 34 % (its
+channels' unmatched scales), offsets within 5,000 nT, axes within 2 degrees. The +-10 V for
 +-100 uT output (100 uV/nT) and the front-end figures are this project's
 assumptions, stated in docs/simulator.md.
 """
@@ -30,9 +34,14 @@ import numpy as np
 
 from desktop.sim.filters import alpha, lowpass
 
+# Two equal real poles with -3 dB at f_c: each pole at f_c / sqrt(sqrt(2) - 1)
+TWO_POLE_FACTOR = 1.0 / np.sqrt(np.sqrt(2.0) - 1.0)
 PRESETS = {
     "mag649": {"bandwidth_hz": 1000.0},
     "mag648": {"bandwidth_hz": 5.0},
+    # gain bound chosen so that seed 0's 0.5 rev/s spin reads Table 2's 24,055 nT PTP (tests/test_sim_response.py)
+    "paper": {"bandwidth_hz": 1000.0, "offset_nT": 5000.0, "scale_error": 0.344,
+              "nonorthogonality_deg": 2.0},
 }
 COMMON = {
     "sensitivity_V_per_nT": 1e-4,      # +-10 V for +-100 uT
@@ -46,6 +55,8 @@ COMMON = {
     "attenuation": 0.2,                # front end: +-10 V onto +-2 V
     "attenuation_tolerance": 0.02,     # 1 % resistors, two per divider
     "frontend_offset_V": 2e-3,         # bound of the front-end offset per axis
+    "poles": 1,                        # 1: first-order response; 2: two equal poles (same -3 dB)
+    "bandwidth_spread": 0.0,           # bound of each axis' relative bandwidth error
 }
 
 
@@ -137,6 +148,12 @@ class Fluxgate(Sensor):
         self.fe_offset = draw(p["frontend_offset_V"])
         self.bandwidth = p["bandwidth_hz"]
         self.pink_nT = float(p["pink_nT"])
+        if p["poles"] not in (1, 2):
+            raise ValueError("poles must be 1 or 2, got %r" % (p["poles"],))
+        self.poles = p["poles"]
+        # drawn last, and only when asked: the other errors of a seed stay what they were
+        spread = rng.uniform(-1.0, 1.0, 3) * p["bandwidth_spread"] if p["bandwidth_spread"] else np.zeros(3)
+        self.axis_bandwidth = None if not self.bandwidth else self.bandwidth * (1.0 + spread)
 
     @property
     def volts_per_nT_nominal(self):
@@ -165,12 +182,30 @@ class Fluxgate(Sensor):
             r += (b @ d.T) * (self.tempco_scale * dt) + self.tempco_offset * dt
         return r
 
+    def tau(self):
+        """(3,) time constants (s) of the axes' poles: 1 / (2 pi f_pole); None: no bandwidth."""
+        if not self.bandwidth:
+            return None
+        return 1.0 / (2.0 * np.pi * self.axis_bandwidth * (TWO_POLE_FACTOR if self.poles == 2 else 1.0))
+
     def bandlimit(self, r, rate_hz, state=None):
-        """Per-axis first-order low-pass at the sensor bandwidth; returns (y, state)."""
+        """Per-axis low-pass at the sensor bandwidth (self.poles equal poles); returns (y, state).
+
+        state: (poles, 3) outputs of each pole before the first sample, or None.
+        """
         if not self.bandwidth:
             return r, None
-        y = lowpass(r, alpha(self.bandwidth, rate_hz), state)
-        return y, y[-1].copy()
+        poles_hz = self.axis_bandwidth * (TWO_POLE_FACTOR if self.poles == 2 else 1.0)
+        y = np.empty_like(np.asarray(r, dtype=float))
+        out_state = np.empty((self.poles, 3))
+        for i in range(3):
+            a = alpha(poles_hz[i], rate_hz)
+            x = r[:, i]
+            for k in range(self.poles):
+                x = lowpass(x, a, None if state is None else state[k, i])
+                out_state[k, i] = x[-1]
+            y[:, i] = x
+        return y, out_state
 
     def to_volts(self, r):
         """ADC input volts (N, 3) for sensor readings r (N, 3) nT (after noise)."""
