@@ -46,7 +46,8 @@ class LivePlot:
         self.path = path
         if path is None:
             plt.ion()
-        self.fig = plt.figure("fluxcal monitor", figsize=(13, 4.5))
+        self.fig = plt.figure("fluxcal monitor", figsize=(13, 5.5))
+        self.fig.subplots_adjust(bottom=0.3, wspace=0.3)     # room for the map's legend below it
         self.ax_b = self.fig.add_subplot(1, 3, 1)
         self.ax_cloud = self.fig.add_subplot(1, 3, 2, projection="3d")
         self.ax_cov = self.fig.add_subplot(1, 3, 3)
@@ -112,5 +113,5 @@ class LivePlot:
 
         handles = draw_coverage(ax, self.coverage.counts, self.coverage.edge, self.cap, self.now)
         ax.set_xlabel("longitude about Z (equal-area map)")
-        ax.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 1.08), fontsize=7, ncol=2)
+        ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize=7, ncol=2)
         ax.set_title("sphere " + coverage_title(self.coverage.counts), fontsize=9)
