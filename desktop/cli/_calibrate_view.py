@@ -118,8 +118,13 @@ class Board(_Guide):
             parts.append(coverage_map(coverage["counts"], coverage["cells_per_edge"], cfg["cell_cap"], ev.get("dir")))
         if gap:
             parts.append(Text(gap, style="bold"))
-        parts.append(Text("waiting for the firmware to finish by itself" if self.auto else
-                          "f / Enter: finish    c / Esc: cancel", style="italic"))
+        if self.auto:
+            parts.append(Text("waiting for the firmware to finish by itself", style="italic"))
+        elif ev.get("ready"):
+            parts.append(Text("READY: press f or Enter to finish (or keep turning to fill the gap; c / Esc cancels)",
+                              style="bold green"))
+        else:
+            parts.append(Text("f / Enter: finish    c / Esc: cancel", style="italic"))
         self.live.update(Group(*parts))
 
 
