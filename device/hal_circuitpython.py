@@ -42,6 +42,9 @@ try:
 except (ImportError, AttributeError):
     _data = None
 
+# Serial bytes read per main-loop pass: 100 kB/s of junk discarded at 50 passes a second (as
+# hal_micropython.py; the protocol needs >= 50 kB/s, docs/protocol.md)
+SERIAL_CHUNK = 2048
 _TICKS_PERIOD = 1 << 29      # supervisor.ticks_ms wraps at 2**29 ms
 _TICKS_HALF = _TICKS_PERIOD // 2
 _GAP_MS_MAX = 131071         # ms * 8000 SPS stays a small int (2**30) without long ints
@@ -69,6 +72,7 @@ class Board(hal.Board):
     def __init__(self, cfg, root="/"):
         self.root = root if root != "/" else ""
         self.name = "circuitpython-" + sys.platform
+        self._rbuf = bytearray(SERIAL_CHUNK)
         self.spi = busio.SPI(_pin(cfg["pin_sck"]), MOSI=_pin(cfg["pin_mosi"]), MISO=_pin(cfg["pin_miso"]))
         while not self.spi.try_lock():
             pass
@@ -188,11 +192,22 @@ class Board(hal.Board):
             self._on_gap(k)
 
     def serial_read(self):
-        if _data is not None:
-            n = _data.in_waiting
-            return _data.read(n) if n else None
-        n = supervisor.runtime.serial_bytes_available
-        return sys.stdin.read(n).encode() if n else None
+        """What arrived, up to SERIAL_CHUNK bytes (a bytearray), or None.
+
+        The USB receive FIFO holds 64 bytes (TinyUSB's full-speed default) and the host
+        refills it as it is read, so the data port is read while it has bytes waiting, each
+        read no more than are there (it would wait for the rest)."""
+        if _data is None:       # the console: no second port enabled in boot.py
+            n = supervisor.runtime.serial_bytes_available
+            return sys.stdin.read(min(n, SERIAL_CHUNK)).encode() if n else None
+        buf = self._rbuf
+        n = 0
+        while n < SERIAL_CHUNK:
+            k = min(_data.in_waiting, SERIAL_CHUNK - n)
+            if not k:
+                break
+            n += _data.readinto(memoryview(buf)[n:n + k])
+        return buf[:n] if n else None
 
     def serial_write(self, data):
         if _data is not None:

@@ -1,7 +1,10 @@
 # Stand-in for CircuitPython's `usb_cdc` module, from docs.circuitpython.org shared-bindings/usb_cdc:
 # enable(*, console=True, data=False) may only be called in boot.py; usb_cdc.data is a Serial
-# (in_waiting, read, write, reset_input_buffer) when boot.py enabled it, else None. Both ports
+# (in_waiting, read, readinto, write, reset_input_buffer) when boot.py enabled it, else None. Both ports
 # are the process's stdin/stdout here. Not a module of the desktop package.
+# The receive FIFO is TinyUSB's CFG_TUD_CDC_RX_BUFSIZE, 64 bytes on a full-speed device (CircuitPython's
+# supervisor/shared/usb/tusb_config.h leaves the default): in_waiting is at most that, and the host
+# refills it as it is read.
 import select
 import sys
 
@@ -10,6 +13,7 @@ import simboard
 _board = simboard.board()
 console = None
 data = None
+RX_FIFO = 64
 
 
 class Serial:
@@ -20,7 +24,7 @@ class Serial:
         self.timeout = 1.0
 
     def _fill(self):
-        while self._poll.poll(0):
+        while len(self._rx) < RX_FIFO and self._poll.poll(0):
             self._rx += sys.stdin.buffer.read(1)
 
     @property
@@ -33,6 +37,13 @@ class Serial:
         out = bytes(self._rx[:size])
         self._rx = self._rx[size:]
         return out
+
+    def readinto(self, buf):
+        self._fill()
+        n = min(len(buf), len(self._rx))
+        buf[:n] = self._rx[:n]
+        self._rx = self._rx[n:]
+        return n
 
     def write(self, buf):
         sys.stdout.buffer.write(buf)
