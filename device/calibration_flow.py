@@ -29,6 +29,7 @@ from protocol import ProtocolError, json_number
 from session import AUTO, FULL, KINDS, QUICK, Session
 from shared import codes
 from shared.calibration import Calibration
+from shared.fit import SUMS_PATH
 
 SOLVE = "solve"   # board.busy key: a solve, charged as simulated time by the simulated board
 
@@ -264,6 +265,7 @@ class CalibrationFlow:
             "cal_kind": cal.meta.get("kind", FULL) if cal is not None else None,
             "tempco_range": cal.tempco["range_c"] if cal is not None and cal.tempco else None,
             "last_cal": self.last_result,
+            "sums": SUMS_PATH,    # the fit's sums: "native" (fitsums.mpy) or "python"
         }
         if self.session is not None:
             out["cal"] = self.session.progress()

@@ -23,6 +23,8 @@ fitted with ``solve(scale=lsb)`` and mapped back with
 ``Calibration.scaled_input(lsb)``.
 """
 
+from array import array
+
 from shared import solver
 from shared.errors import FitError  # noqa: F401 - the fit's error, imported from here by its users
 from shared.iteration import MAX_ITER
@@ -36,6 +38,19 @@ try:
 except ImportError:
     _STRICT = True
 _INTS = "EllipsoidFit takes integers (quantise floats first)"
+
+try:
+    # The native sums (device/native/fitsums.c) where deploy installed the board's build:
+    # MicroPython only. Elsewhere, and for codes it does not take, the packed integers below.
+    import fitsums
+except (ImportError, ValueError):    # ValueError: a .mpy of another architecture or version
+    fitsums = None
+# Which path sums the samples (the `status` key `sums`).
+SUMS_PATH = "python" if fitsums is None else "native"
+# Samples the native words take before they are drained into the exact sums: each
+# monomial of codes under 2**24 is under 2**96, so 2**24 of them stay inside the
+# words' 128-bit two's complement (fitsums.c).
+_DRAIN = 1 << 24
 
 # Pending samples ride in eight packed integers (Kronecker substitution): slot j of
 # a pack, bits [j*k, (j+1)*k), holds the running sum of one monomial, and each
@@ -57,7 +72,9 @@ class EllipsoidFit:
     (docs/firmware.md, instruction counts). The packs are unpacked into the
     plain sums every _FLUSH samples, before any read of the sums, and before a
     sample too large for the slot width; every result is the same integer as
-    summing monomial by monomial.
+    summing monomial by monomial. Where the native module fitsums is installed,
+    codes under 2**24 are summed in its 128-bit machine words instead and drained
+    into the same integers (SUMS_PATH says which path runs).
     """
 
     def __init__(self):
@@ -69,6 +86,9 @@ class EllipsoidFit:
         self._bias = 0                    # inputs in [-bias, bias) fit the slots:
         self._span = 0                    #   0 <= (v + bias) < span = 2 * bias
         self._room = 0                    # samples the packs take before unpacking
+        if fitsums is not None:
+            self._words = array("I", [0] * fitsums.WORDS)    # the native sums: 34 x 128 bits
+            self._left = _DRAIN           # samples the words take before draining
 
     @classmethod
     def from_sums(cls, sums):
@@ -129,6 +149,35 @@ class EllipsoidFit:
         p[6] += y * t                     # y^4 .. yzzz
         p[7] += z * zzz
 
+    if fitsums is not None:
+        _add_packed = add
+
+        def add(self, x, y, z, _out=False):
+            # Codes under 2**24 in magnitude go into the native words; other ints (and the
+            # floats the pure path refuses) the packed way, into the same exact sums.
+            self._left -= 1
+            if self._left < 0:
+                self._drain()
+            if fitsums.add(self._words, x, y, z, _out):
+                self._s[0] += -1 if _out else 1
+            else:
+                self._add_packed(x, y, z, _out)
+
+        def _drain(self):
+            """Add the native words into the sums and zero them: sum n is the 128-bit two's
+            complement in words 4(n-1) .. 4n-1, least significant first."""
+            w = self._words
+            s = self._s
+            if self._left < _DRAIN:
+                for n in range(1, COUNT):
+                    j = 4 * n - 4
+                    v = w[j] | (w[j + 1] << 32) | (w[j + 2] << 64) | (w[j + 3] << 96)
+                    if v >> 127:
+                        v -= 1 << 128
+                    s[n] += v
+                    w[j] = w[j + 1] = w[j + 2] = w[j + 3] = 0
+            self._left = _DRAIN
+
     def remove(self, x, y, z):
         if self._s[0] < 1:
             raise ValueError("remove from an empty fit")
@@ -137,6 +186,8 @@ class EllipsoidFit:
     def _unpack(self, x=0, y=0, z=0):
         """Add the packs into the sums; then size the slots for inputs up to the
         largest of |x|, |y|, |z| with a bit of headroom (never narrower than before)."""
+        if fitsums is not None:
+            self._drain()
         k = self._k
         if k:
             s = self._s

@@ -12,7 +12,7 @@ from tests.device_session import ask, boot
 ALWAYS = {"v", "ok", "cmd", "state", "fault", "fault_code", "safe_mode", "errors", "last_error", "calibrated",
           "cal_source", "cal_problem", "config_problems", "stream", "uptime_ms", "temp", "temp_warn", "cal_kind",
           "tempco_range", "last_cal", "frames", "overflow", "missed", "badsync", "discarded", "gaps", "samples",
-          "spikes", "clipped"}
+          "spikes", "clipped", "sums"}
 # the ADC's run-time health exists once the chips answered at boot
 HEALTH = {"adc_faults"}
 # a calibration in progress: its progress report
@@ -26,6 +26,7 @@ def test_survey_reply(tmp_path):
         s = ask(w, dev, "status")
         assert set(s) == ALWAYS | HEALTH
         assert (s["state"], s["fault"], s["calibrated"], s["stream"], s["errors"]) == ("survey", None, False, "off", 0)
+        assert s["sums"] == "python"     # CPython loads no native module
         assert s["samples"] > 0 and s["frames"] > s["samples"]   # decimated: fewer samples than frames
     finally:
         dev.close()
@@ -66,5 +67,6 @@ def test_a_board_adds_its_free_heap(tmp_path):
         s = ask(w, dev, "status")
         assert set(s) == ALWAYS | HEALTH | {"mem_free"}
         assert isinstance(s["mem_free"], int)
+        assert s["sums"] == "python"     # the simulated board's lib/ holds no fitsums.mpy
     finally:
         dev.close()

@@ -30,6 +30,9 @@ BUILTIN = {
     "circuitpython": {"board", "busio", "digitalio", "keypad", "storage", "supervisor", "usb_cdc"},
     "sim": set(),
 }
+# imported where present, guarded by try/except: the native module deploy adds for a MicroPython
+# board whose architecture has a build (desktop/firmware/natmod.py), not a file of the list
+OPTIONAL = {"fitsums"}
 
 
 def _imports(path):
@@ -86,7 +89,7 @@ def _reached(runtime):
             src = _source(name)
             if src is not None:
                 todo.append(os.path.normpath(src))
-            elif name.split(".")[0] not in BUILTIN["common"] | BUILTIN[runtime] | {"shared"}:
+            elif name.split(".")[0] not in BUILTIN["common"] | BUILTIN[runtime] | OPTIONAL | {"shared"}:
                 unknown.add(name)
     return seen, unknown
 

@@ -42,7 +42,7 @@ RULES = {
     "desktop/cli": (("numpy", "matplotlib", "rich"), ("shared", "desktop")),
 }
 # the MicroPython-only modules shared/ guards with try/except ImportError
-MICROPYTHON_ONLY = {"micropython"}
+MICROPYTHON_ONLY = {"micropython", "fitsums"}   # fitsums: the native sums (device/native), where deployed
 
 
 def _modules(folder):

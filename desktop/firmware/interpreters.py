@@ -3,6 +3,8 @@
     python -m desktop.firmware.interpreters build     # build what is missing (cached in build/)
     python -m desktop.firmware.interpreters list      # one line each: path, or why it is missing
 
+`build` with no names also builds the firmware's native module (desktop/firmware/natmod.py).
+
 =====================  ==================================================  ========================
 name                   what it is                                          from
 =====================  ==================================================  ========================
@@ -238,6 +240,9 @@ def main(argv=None):
         names = args[1:] or list(RECIPES)
         for name in names:
             build(name)
+        if not args[1:]:     # and the firmware's native module for each architecture (after rp2-pico's source)
+            from desktop.firmware import natmod
+            natmod.main(["build"])
         return 0
     if args[:1] == ["list"]:
         for name in ("micropython",) + tuple(RECIPES):

@@ -1,0 +1,143 @@
+"""The firmware's native module (device/native/fitsums.c) as .mpy files, one per architecture.
+
+    python -m desktop.firmware.natmod build    # build what is missing (cached in build/)
+    natmod_path("armv6m")                      # build/interpreters/natmod/armv6m/fitsums.mpy, or None
+    natmod_for(decode_mpy(board_mpy))          # the file a board loads, or None (pure Python there)
+
+Built with MicroPython's native-module tooling (py/dynruntime.mk, tools/mpy_ld.py) from the
+rp2 source tree in ../shared/rp2, the same v1.28.0 as the emulated Pico, so the files are
+.mpy v6.3: what the pip `micropython`, the unix builds here and the Pico load. mpy_ld needs
+pyelftools (the test extra), the Arm ones arm-none-eabi-gcc, x86 gcc -m32. CircuitPython
+loads no MicroPython .mpy and keeps the pure-Python sums.
+"""
+
+import glob
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+import tarfile
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SHARED = os.path.join(os.path.dirname(REPO), "shared")
+BUILD = os.path.join(REPO, "build", "interpreters", "natmod")
+SOURCE = os.path.join(REPO, "device", "native")
+MODULE = "fitsums"
+# the architectures built: x64 the 64-bit unix ports, x86 the 32-bit one (micropython-reprc),
+# armv6m the RP2040's Cortex-M0+, armv7m Cortex-M3 boards (qemu-m3)
+ARCHS = ("x64", "x86", "armv6m", "armv7m")
+VERSION = (6, 3)     # the .mpy version v1.28.0's tooling writes
+TARBALL = "rp2/micropython-*-rp2-src.tar.xz"
+
+
+def _stamp():
+    """What a build depends on: the sources and the tooling's archive (None without the sources:
+    an installed wheel, which has no build/ either)."""
+    if not os.path.isdir(SOURCE):
+        return None
+    parts = [os.path.basename(p) for p in sorted(glob.glob(os.path.join(SHARED, TARBALL)))]
+    for name in sorted(os.listdir(SOURCE)):
+        with open(os.path.join(SOURCE, name), "rb") as fh:
+            parts.append(name + ":" + fh.read().hex())
+    return "\n".join(parts)
+
+
+def _stamp_ok(arch):
+    stamp = _stamp()
+    try:
+        with open(os.path.join(BUILD, arch, "recipe")) as fh:
+            return stamp is not None and fh.read() == stamp
+    except OSError:
+        return False
+
+
+def natmod_path(arch):
+    """The built fitsums.mpy for `arch` (an mpy-cross -march name), or None."""
+    path = os.path.join(BUILD, str(arch), MODULE + ".mpy")
+    return path if arch in ARCHS and os.path.exists(path) and _stamp_ok(arch) else None
+
+
+def natmod_for(target):
+    """The fitsums.mpy a board loads (target: desktop.firmware.mpy.decode_mpy of its _mpy), or None
+    when none matches its architecture and .mpy version: the board then runs the pure-Python sums."""
+    if target is None or (target.version, target.sub) != VERSION:
+        return None
+    return natmod_path(target.arch)
+
+
+def _tooling():
+    """The MicroPython tree with py/dynruntime.mk (the rp2 build's extracted source), or None."""
+    trees = glob.glob(os.path.join(REPO, "build", "interpreters", "src", "micropython-*-rp2"))
+    if trees:
+        return trees[0]
+    tarballs = glob.glob(os.path.join(SHARED, TARBALL))
+    if not tarballs:
+        return None
+    part = os.path.join(BUILD, "src.part")
+    os.makedirs(part, exist_ok=True)
+    with tarfile.open(tarballs[0]) as tar:
+        tar.extractall(part)
+    tree = os.path.join(BUILD, "src")
+    shutil.rmtree(tree, ignore_errors=True)
+    os.rename(os.path.join(part, os.listdir(part)[0]), tree)
+    shutil.rmtree(part, ignore_errors=True)
+    return tree
+
+
+def _missing(arch):
+    if importlib.util.find_spec("elftools") is None:     # tools/mpy_ld.py reads the object files with it
+        return "pyelftools (pip install pyelftools)"
+    if arch.startswith("arm") and shutil.which("arm-none-eabi-gcc") is None:
+        return "arm-none-eabi-gcc"
+    if arch == "x86":
+        r = subprocess.run(["gcc", "-m32", "-x", "c", "-o", os.devnull, "-"], input="int main(){return 0;}",
+                           capture_output=True, text=True)
+        if r.returncode:
+            return "gcc -m32 (Debian's gcc-multilib)"
+    return None
+
+
+def build(arch, log=print):
+    """Build fitsums.mpy for one architecture unless it is there; returns its path or None."""
+    label = "natmod " + arch
+    if natmod_path(arch):
+        log("%-20s cached  %s" % (label, os.path.relpath(natmod_path(arch), REPO)))
+        return natmod_path(arch)
+    missing = _missing(arch) if os.path.isdir(SOURCE) else "the sources (%s)" % SOURCE
+    tree = None if missing else _tooling()
+    if missing or tree is None:
+        log("%-20s missing: %s" % (label, "this machine lacks " + missing if missing else
+                                   "no %s (../shared beside the repository)" % os.path.join(SHARED, TARBALL)))
+        return None
+    out = os.path.join(BUILD, arch)
+    shutil.rmtree(out, ignore_errors=True)
+    os.makedirs(out)
+    for name in os.listdir(SOURCE):
+        shutil.copy2(os.path.join(SOURCE, name), out)
+    # mpy_ld runs as `python3`: this interpreter's folder first, where pip put pyelftools
+    env = dict(os.environ, PATH=os.path.dirname(sys.executable) + os.pathsep + os.environ.get("PATH", ""))
+    with open(os.path.join(out, "build.log"), "w") as logfile:
+        r = subprocess.run(["make", "-C", out, "MPY_DIR=" + tree, "ARCH=" + arch], stdout=logfile,
+                           stderr=subprocess.STDOUT, env=env)
+    if r.returncode:
+        log("%-20s failed: make exited %d (see %s)" % (label, r.returncode, os.path.relpath(logfile.name, REPO)))
+        return None
+    with open(os.path.join(out, "recipe"), "w") as fh:
+        fh.write(_stamp())
+    log("%-20s built   %s" % (label, os.path.relpath(natmod_path(arch), REPO)))
+    return natmod_path(arch)
+
+
+def main(argv=None):
+    args = sys.argv[1:] if argv is None else argv
+    if args[:1] == ["build"]:
+        for arch in args[1:] or ARCHS:
+            build(arch)
+        return 0
+    print("usage: python -m desktop.firmware.natmod build [ARCH...]", file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,97 @@
+"""The native sums (device/native/fitsums.c) against the pure-Python big integers, bit for bit.
+
+tests/micropython/native_sums.py feeds shared.fit.EllipsoidFit the same codes on CPython
+(the pure-Python sums: the reference) and on every interpreter a board has, with the
+fitsums.mpy deploy would pick for it (desktop.firmware.natmod.natmod_for its _mpy) on the
+path: random codes with a tenth removed, the ±2**23 extremes in every combination and
+a long run at full scale (degree-4 sums far past 64 bits), all of it removed again,
+codes past the native words' range and bools mixed in, drains mid-stream, a merge.
+Every sum must be the same integer. The MicroPython builds must take the native path;
+CircuitPython loads no MicroPython .mpy and must fall back to pure Python. A natmod
+not built is a skip saying so (a failure under FLUXCAL_REQUIRE_INTERPRETERS).
+"""
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from desktop.firmware.mpy import decode_mpy
+from desktop.firmware.natmod import natmod_for
+from tests.interpreters import INTERPRETERS, need
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCRIPT = os.path.join(REPO, "tests", "micropython", "native_sums.py")
+LOADS_NATMODS = {"micropython", "micropython-float32", "micropython-reprc", "rp2-pico"}
+
+
+def _run(argv):
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
+    return json.loads(proc.stdout.splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def reference():
+    got = _run([sys.executable, SCRIPT, REPO, ""])
+    assert got["path"] == "python"         # CPython never loads a .mpy
+    assert set(got["sums"][2]) == {"0"}    # everything added was removed
+    return got
+
+
+def _need_natmod(exe, name):
+    """The fitsums.mpy for the interpreter's _mpy, or skip (fail under FLUXCAL_REQUIRE_INTERPRETERS)."""
+    out = subprocess.run([exe, "-c", "import sys; print(sys.implementation._mpy)"], capture_output=True, text=True)
+    target = decode_mpy(int(out.stdout.split()[-1]))
+    path = natmod_for(target)
+    if path is None:
+        msg = "no fitsums.mpy for %s (%s): make interpreters" % (name, target)
+        if os.environ.get("FLUXCAL_REQUIRE_INTERPRETERS"):
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return path
+
+
+@pytest.mark.parametrize("name", INTERPRETERS)
+def test_native_sums_equal_the_pure_python_ones(name, reference, micropython):
+    exe = micropython if name == "micropython" else need(name)
+    natmod = _need_natmod(exe, name)
+    got = _run([exe, SCRIPT, REPO, os.path.dirname(natmod)])
+    assert got["path"] == ("native" if name in LOADS_NATMODS else "python")
+    assert got["sums"] == reference["sums"]
+    assert got["refused"] == reference["refused"]      # a float: the same TypeError
+
+
+def test_native_sums_on_the_emulated_pico(reference, tmp_path):
+    """The armv6m build on the rp2 firmware (Cortex-M0+, 31-bit small ints): shared/ and the
+    script as .mpy from the Pico's own mpy-cross, copied into its flash by mpremote (not
+    mounted: mount's 1 s poll times out when this machine is loaded)."""
+    need("rp2-pico")
+    from desktop.devicesim.pico_board import PicoBoard
+    from desktop.firmware.interpreters import pico_parts
+    from desktop.firmware.natmod import natmod_path
+
+    natmod = natmod_path("armv6m")
+    if natmod is None:
+        msg = "no fitsums.mpy for armv6m: make interpreters"
+        if os.environ.get("FLUXCAL_REQUIRE_INTERPRETERS"):
+            pytest.fail(msg)
+        pytest.skip(msg)
+    cross = pico_parts()["mpy_cross"]
+    (tmp_path / "disk" / "shared").mkdir(parents=True)
+    for name in os.listdir(os.path.join(REPO, "shared")):
+        if name.endswith(".py"):
+            subprocess.run([cross, "-o", str(tmp_path / "disk" / "shared" / (name[:-3] + ".mpy")),
+                            os.path.join(REPO, "shared", name)], check=True)
+    subprocess.run([cross, "-o", str(tmp_path / "disk" / "native_sums.mpy"), SCRIPT], check=True)
+    with open(natmod, "rb") as src, open(tmp_path / "disk" / "fitsums.mpy", "wb") as dst:
+        dst.write(src.read())
+    with PicoBoard(str(tmp_path / "pico.flash"), ) as board:
+        run = "import sys; sys.path.insert(0, '/disk'); import native_sums; native_sums.main('/disk', '/disk')"
+        got = _run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", str(tmp_path / "disk"), ":",
+                    "+", "exec", run])
+    assert got["path"] == "native"
+    assert got["sums"] == reference["sums"]
+    assert got["refused"] == reference["refused"]
