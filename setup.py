@@ -158,13 +158,18 @@ class WheelDistribution(Distribution):
         return True
 
 
-if "editable_wheel" in sys.argv:
-    # an editable install (pip install -e .): the source tree's names, and fluxcal a namespace
-    # over the checkout, so that the entry point fluxcal.desktop.cli is desktop/cli (whose own
-    # imports then load desktop.*, as in the tree). setuptools' notice on such installs warns of
-    # a folder in the working directory named as the package: the checkout has none (fluxcal/
-    # exists in the wheel only), so `make demo` and `make test` do not print it.
-    warnings.filterwarnings("ignore", category=InformationOnly)
-    setup(packages=["desktop", "shared", "device", "fluxcal"], package_dir={"fluxcal": "."})
-else:
-    setup(packages=[], distclass=WheelDistribution, cmdclass={"build_py": BuildFluxcal})
+def main():
+    if "editable_wheel" in sys.argv:
+        # an editable install (pip install -e .): the source tree's names, and fluxcal a namespace
+        # over the checkout, so that the entry point fluxcal.desktop.cli is desktop/cli (whose own
+        # imports then load desktop.*, as in the tree). setuptools' notice on such installs warns
+        # of a folder in the working directory named as the package: the checkout has none
+        # (fluxcal/ exists in the wheel only), so `make demo` and `make test` do not print it.
+        warnings.filterwarnings("ignore", category=InformationOnly)
+        setup(packages=["desktop", "shared", "device", "fluxcal"], package_dir={"fluxcal": "."})
+    else:
+        setup(packages=[], distclass=WheelDistribution, cmdclass={"build_py": BuildFluxcal})
+
+
+if __name__ == "__main__":     # as setuptools runs it; imported, it only defines (tests/test_wheel_layout.py)
+    main()
