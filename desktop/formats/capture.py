@@ -25,6 +25,15 @@ position            (N, 3) float64  sensor position, m (world: x north, y east, 
 temperature_c       (N,) float64    true temperature, C
 ==================  ==============  ===============================================
 
+A walked survey (`fluxcal simulate --motion survey`) also has
+
+==================  ==============  ===============================================
+line_marks          (L, 2) float64  the marker pressed at each traverse's start and end, s
+==================  ==============  ===============================================
+
+and its config's "survey" names the grid (width_m east, length_m north,
+spacing_m, zigzag, ...), which `fluxcal map` reads.
+
 A recording from a handheld (`fluxcal capture`, the firmware's `raw` stream)
 has no chip registers and no truth; its samples are the firmware's decimated
 samples (the mean codes of each boxcar), not single conversions:
@@ -53,6 +62,7 @@ from desktop.sim.ads1292.registers import Config, codes_to_volts, volts_to_tempe
 
 KEYS = ("codes", "t", "nT_per_code", "registers", "sensor_matrix", "sensor_offset", "config")
 TRUTH_KEYS = ("field_true", "magnitude_true", "quaternion", "position", "temperature_c")
+SURVEY_KEYS = ("line_marks",)
 
 
 def save_capture(path, capture):
@@ -60,7 +70,7 @@ def save_capture(path, capture):
     missing = [k for k in KEYS if k not in capture]
     if missing:
         raise ValueError("capture lacks %s" % ", ".join(missing))
-    keys = KEYS + tuple(k for k in TRUTH_KEYS if k in capture)
+    keys = KEYS + tuple(k for k in TRUTH_KEYS + SURVEY_KEYS if k in capture)
     _savez(path, {k: np.asarray(capture[k]) for k in keys})
 
 

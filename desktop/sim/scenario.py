@@ -84,7 +84,10 @@ class Scenario:
                     bandwidth="preset", poles=1, bandwidth_spread=0.0, ideal=False, adc_noise=True, gain=1, vref_4v=False,
                     field_nT=EARTH_NT, inclination_deg=INCLINATION_DEG, declination_deg=DECLINATION_DEG,
                     drift=0.0, gradient=0.0, dipole=None, temp_c=25.0, temp_drift=0.0,
-                    temp_profile=None, vref_drift="seed", grid_rate="auto", dwell=0.002)
+                    temp_profile=None, vref_drift="seed", grid_rate="auto", dwell=0.002, survey=None)
+    # motion "survey": the walk and the site (desktop/sim/walk.py, desktop/sim/site.py)
+    SURVEY_DEFAULTS = dict(width_m=20.0, length_m=20.0, spacing_m=0.5, zigzag=True, speed=1.0,
+                           site_seed=0, clutter_ptp=2.0, diurnal_nT=20.0, pipe=True)
 
     def __init__(self, **kw):
         unknown = set(kw) - set(self.DEFAULTS)
@@ -111,6 +114,36 @@ class Scenario:
                 raise ValueError("temp_profile replaces temp_drift: give one of them")
             self.temp_profile = [list(p) for p in pts]    # JSON-ready
         self.vref_tempco()                                  # checks vref_drift
+        self._walk = self._site = None
+        if self.motion == "survey":
+            unknown = set(self.survey or {}) - set(self.SURVEY_DEFAULTS)
+            if unknown:
+                raise ValueError("unknown survey settings: %s" % ", ".join(sorted(unknown)))
+            self.survey = dict(self.SURVEY_DEFAULTS, **(self.survey or {}))
+            self.seconds = self.walk().seconds          # the walk decides how long the capture is
+
+    def walk(self):
+        """The survey's walk (desktop.sim.walk.SurveyWalk), from motion_seed; None for other motions."""
+        if self.motion != "survey":
+            return None
+        if self._walk is None:
+            from desktop.sim.walk import make_walk
+            s = self.survey
+            rng = np.random.default_rng(np.random.SeedSequence([int(self.motion_seed), 649]))
+            self._walk = make_walk(rng, s["width_m"], s["length_m"], s["spacing_m"], s["zigzag"], s["speed"])
+        return self._walk
+
+    def site(self):
+        """The surveyed site (desktop.sim.site.Site); None for other motions."""
+        if self.motion != "survey":
+            return None
+        if self._site is None:
+            from desktop.sim.site import make_site
+            s = self.survey
+            self._site = make_site(s["width_m"], s["length_m"], s["site_seed"], s["clutter_ptp"],
+                                   s["diurnal_nT"], s["pipe"],
+                                   earth_vector(1.0, self.inclination_deg, self.declination_deg))
+        return self._site
 
     def temperature(self, t):
         """Temperature (C) at times t (s), an array like t (temp_profile, else temp_c + temp_drift t)."""
@@ -168,6 +201,9 @@ class Scenario:
 
     def field(self):
         earth = earth_vector(self.field_nT, self.inclination_deg, self.declination_deg)
+        if self.motion == "survey":
+            from desktop.sim.site import SiteField
+            return SiteField(earth, self.site())
         return Field(earth, self.drift, self.gradient, self.dipole)
 
     def registers(self):
@@ -178,6 +214,8 @@ class Scenario:
 
     def operator(self, rng):
         """The operator's motion (motion.Motion) over the capture, from the motion's generator."""
+        if self.motion == "survey":
+            return self.walk()
         fdir = earth_vector(1.0, self.inclination_deg, self.declination_deg)
         return make_motion(self.motion, self.seconds + 0.1, rng, rate=self.rot_rate, coverage=self.coverage,
                            field_dir=fdir, dwell=self.dwell)
@@ -326,4 +364,6 @@ def simulate(sc, chunk_seconds=8.0, truth=True):
         "config": json.dumps(dict(sc.to_dict(), version=1, start_tick=0, first_drdy_tick=first)),
     }
     cap.update(found)
+    if sc.motion == "survey":
+        cap["line_marks"] = sc.walk().line_marks
     return cap
