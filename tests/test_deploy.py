@@ -17,11 +17,12 @@ import sys
 import pytest
 
 from desktop.devicesim.virtual_board import VirtualBoard
-from desktop.firmware.deploy import STAGE, DeployError, MicroPythonDeploy, board_files, deploy_drive
+from desktop.firmware.deploy import NATIVE, STAGE, DeployError, MicroPythonDeploy, board_files, deploy_drive
 from desktop.firmware.files import DEVICE, REPO, root_files
 from desktop.firmware.interpreters import mpy_cross_exe
 from desktop.firmware.mpy import cross_version, decode_mpy, mpy_mismatch
-from tests.test_firmware_files import BUILTIN, _imports, _source
+from desktop.firmware.natmod import natmod_for
+from tests.test_firmware_files import BUILTIN, OPTIONAL, _imports, _source
 
 MPREMOTE = [sys.executable, "-m", "mpremote"]
 
@@ -116,7 +117,7 @@ def test_the_deployment_holds_every_module_the_firmware_imports(runtime):
             if src is not None:
                 todo.append(src)
             else:
-                assert name.split(".")[0] in BUILTIN["common"] | BUILTIN[runtime] | {"shared"}, name
+                assert name.split(".")[0] in BUILTIN["common"] | BUILTIN[runtime] | OPTIONAL | {"shared"}, name
     assert not missing, "imported by the firmware, left out by the deployment: %s" % sorted(missing)
     assert os.path.join(DEVICE, "app.py") in seen
 
@@ -127,24 +128,37 @@ def test_deploy_then_redeploy_into_a_virtual_board(micropython, tmp_path):
     with VirtualBoard(flash, exe=micropython) as board:
         done = MicroPythonDeploy(board.port, compiled=True).run()
         assert "swapped in place, board reset" in done
-        mpy = {path for _, path in board_files("micropython", compiled=True)}
+        # the fit's native sums go along where the interpreter's arch has a build (make interpreters)
+        target = decode_mpy(_board_mpy(board.port))
+        native = {NATIVE} if natmod_for(target) else set()
+        assert ("native sums" in done) == bool(native)
+        mpy = {path for _, path in board_files("micropython", compiled=True)} | native
         assert set(flash_tree(flash)) == mpy
         header = (flash / "lib" / "app.mpy").read_bytes()[:2]
-        assert header == b"M" + bytes([decode_mpy(_board_mpy(board.port)).version])
+        assert header == b"M" + bytes([target.version])
         board_imports(board.port, ["hal_micropython", "app"])
+        assert _sums_path(board.port) == ("native" if native else "python")
 
         # the same board again, as source: every .mpy replaced by its .py (a stale .mpy would not
         # matter, a stale .py would shadow a new .mpy), nothing left of the staging
         MicroPythonDeploy(board.port, compiled=False).run()
-        assert set(flash_tree(flash)) == {path for _, path in board_files("micropython", compiled=False)}
+        assert set(flash_tree(flash)) == {path for _, path in board_files("micropython", compiled=False)} | native
         assert flash_tree(flash)["lib/app.py"] == flash_tree(DEVICE)["app.py"]
         board_imports(board.port, ["hal_micropython", "app"])
+        assert _sums_path(board.port) == ("native" if native else "python")
 
         # the command line: the files go on, then the version check finds no firmware (no machine.Pin here)
         r = fluxcal_deploy("--port", board.port, "--wait", "1")
         assert "copying %d files (.mpy" % len(mpy) in r.stdout
         assert "did not answer `version`" in one_line_failure(r)
         assert set(flash_tree(flash)) == mpy
+
+
+def _sums_path(port):
+    """Which sums the deployed fit runs on the board (shared.fit.SUMS_PATH)."""
+    r = subprocess.run(MPREMOTE + ["connect", port, "exec", "import sys; sys.path.append('/lib'); from shared import fit; "
+                                   "print('sums', fit.SUMS_PATH)"], capture_output=True, text=True, timeout=60)
+    return r.stdout.split()[-1]
 
 
 def _board_mpy(port):
