@@ -70,7 +70,8 @@ def rewrite_imports(text, path):
         first = tokens[k]
         if tok.string == "from":
             j = k
-            while tokens[j].string != "import" and (tokens[j].type == tokenize.NAME or tokens[j].string == "."):
+            while tokens[j].string != "import" and (tokens[j].type == tokenize.NAME
+                                                    or tokens[j].string in (".", "...")):   # relative levels
                 j += 1
             if tokens[j].string != "import":
                 continue            # yield from / raise ... from
@@ -83,9 +84,13 @@ def rewrite_imports(text, path):
                     break
                 j += 1
         if first.type == tokenize.NAME and first.string in LAPTOP + ("device",):
-            if tok.string == "import" or first.string == "device":
-                raise ImportRewriteError("%s:%d: `%s %s` cannot be renamed for the wheel (use from %s... import)"
-                                         % (path, tok.start[0], tok.string, first.string, first.string))
+            if first.string == "device":
+                raise ImportRewriteError("%s:%d: the laptop reaches the firmware through import_device(), not"
+                                         " `%s device`" % (path, tok.start[0], tok.string))
+            if tok.string == "import":
+                raise ImportRewriteError("%s:%d: `import %s` cannot be renamed for the wheel (it would bind"
+                                         " another name): from %s... import" % (path, tok.start[0], first.string,
+                                                                                first.string))
             edits.append(first.start)
     for row, col in reversed(edits):
         line = lines[row - 1]

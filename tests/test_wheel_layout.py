@@ -55,7 +55,8 @@ def test_every_laptop_module_is_renamed_into_fluxcal():
     ("def f():\n    from desktop.cli._errors import (CommandError,\n        x)\n",
      "def f():\n    from fluxcal.desktop.cli._errors import (CommandError,\n        x)\n"),
     ("s = 'from shared import x'  # from desktop import y\n", "s = 'from shared import x'  # from desktop import y\n"),
-    ("from sharedx import a\nfrom . import shared\n", "from sharedx import a\nfrom . import shared\n"),
+    ("from sharedx import a\nfrom . import shared\nfrom ...x import shared\n",
+     "from sharedx import a\nfrom . import shared\nfrom ...x import shared\n"),
     ("def g():\n    yield from shared_items()\n", "def g():\n    yield from shared_items()\n"),
 ])
 def test_only_import_statements_of_the_laptop_packages_change(text, want):
