@@ -34,6 +34,7 @@ RULES = {
     "desktop/experiments": (("numpy", "matplotlib"), ("shared", "desktop.sim", "desktop.methods",
                                                       "desktop.formats")),
     "desktop/views": (("numpy", "matplotlib"), ("shared",)),
+    "desktop/survey": (("numpy", "matplotlib"), ("shared", "desktop.formats", "desktop.sim.field")),
     "desktop/demo": (("numpy", "matplotlib"), ("desktop.sim", "desktop.methods", "desktop.devicesim",
                                                "desktop.firmware", "desktop.views", CODES)),
     "desktop/bench": (("numpy", "serial"), ("shared", "desktop.sim", "desktop.methods", "desktop.devicesim",

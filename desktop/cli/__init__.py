@@ -19,8 +19,8 @@ import os
 import signal
 import sys
 
-from desktop.cli import (calibrate, capture, correct, demo, deploy, emulate, experiment, fit, monitor, pull_cal,
-                         push_cal, report, simulate, status, tempco)
+from desktop.cli import (calibrate, capture, correct, demo, deploy, emulate, experiment, fit, map, monitor,
+                         pull_cal, push_cal, report, simulate, status, tempco)
 from desktop.cli._errors import CommandError
 from desktop.formats import FormatError
 
@@ -31,6 +31,7 @@ COMMANDS = {
     "correct": correct,
     "demo": demo,
     "simulate": simulate,
+    "map": map,
     "experiment": experiment,
     "status": status,
     "calibrate": calibrate,

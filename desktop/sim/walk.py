@@ -9,8 +9,8 @@ s.1). Line i lies at y = (i + 1/2) spacing; a zig-zag survey walks the odd lines
 south, a parallel one walks every line north and returns to the south edge.
 
 The walker presses the marker at the start and the end of each line (the times
-in `line_marks`, with a human's +-30 ms), keeps about `speed` m/s (a slow wander
-of 3 % rms about it, as one keeps a beeper's pace), turns at each line end (a
+in `line_marks`, with a human's +-30 ms), keeps `speed` m/s to a beeper's pace
+(straying 5 cm rms from where the pace puts him, and catching up), turns at each line end (a
 half circle onto the next line, 2.5 s; parallel: a turn on the spot, a walk back
 at 1.5 m/s and a turn), and carries the sensor 0.3 m above ground with its x axis
 ahead and z down, wobbling by up to 10 degrees (smooth, 4 degrees rms per axis,
@@ -28,6 +28,7 @@ LEAD_IN_S = 2.0             # standing at the first line's start before the firs
 TURN_S = 2.5
 RETURN_SPEED = 1.5
 MARK_JITTER_S = 0.03
+PACE_ERROR_M = 0.05
 WOBBLE_LIMIT_DEG = 10.0
 
 
@@ -56,12 +57,13 @@ def _smooth(rng, n, tau_s, dims=3):
 
 
 def _line(rng, length_m, speed):
-    """Along-line distance (K,) at CONTROL_HZ from 0 to length_m with a wandering pace."""
-    n = int(length_m / speed * 1.5 * CONTROL_HZ) + 10
-    v = speed * (1.0 + 0.03 * _smooth(rng, n, 3.0, 1)[:, 0])
-    s = np.concatenate([[0.0], np.cumsum(v) / CONTROL_HZ])
-    end = int(np.searchsorted(s, length_m))
-    s = s[:end + 1]
+    """Along-line distance (K,) at CONTROL_HZ from 0 to length_m: the pace, and off it by
+    PACE_ERROR_M rms (smooth, 2 s), as a walker keeping step with a beeper strays and catches up."""
+    n = int(np.ceil(length_m / speed * CONTROL_HZ)) + 1
+    t = np.arange(n) / CONTROL_HZ
+    taper = np.sin(np.pi * np.clip(t / max(t[-1], 1e-9), 0, 1))      # on the marks at both ends
+    s = speed * t + PACE_ERROR_M * _smooth(rng, n, 2.0, 1)[:, 0] * taper
+    s = np.clip(np.maximum.accumulate(s), 0.0, length_m)
     s[-1] = length_m
     return s
 
