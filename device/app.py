@@ -58,6 +58,7 @@ class App:
         self.button = Button(board)
         self.led = led = Led(board)
         self.quit = False
+        self.watchdog_ms = None   # the watchdog's timeout once run() started one
         self.guard = Guard(board, proto)   # counts this boot: safe mode if the last ones never became healthy
         body, _src, problem = store.load(board.root, "config")
         self.cfg, self.config_problems = cfgmod.from_dict(body if body is not None else {})
@@ -112,12 +113,16 @@ class App:
     def run(self):
         b = self.board
         guard = self.guard
+        # a board with a watchdog: a pass that never comes back resets it (hal.py, bootguard.py)
+        self.watchdog_ms = self.cfg["watchdog_ms"] if b.watchdog_start(self.cfg["watchdog_ms"]) else None
+        feed = b.watchdog_feed
         while not self.quit and not b.quit_requested():
             try:
                 self.step()
                 guard.passed()
             except Exception as e:  # noqa: BLE001 - nothing stops the instrument (docs/reliability.md)
                 guard.loop_error(e)
+            feed()
             self.wait()
         self.output.close()
         b.hand_back()   # `repl` (self.quit): main.py / code.py ends next, the REPL takes the line

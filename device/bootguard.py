@@ -15,6 +15,8 @@ The app comes up in safe mode (the stored calibration not applied, the protocol
 alive, the reason in `status`) when the previous boot recorded a crash or when
 SAFE_AFTER boots in a row never became healthy (a hard fault or a watchdog reset
 leaves no text): so `clear-cal`, `set-cal` or a redeploy can always reach it.
+A reset by the watchdog's timeout (a hung main loop, hal.py) always counts its
+boot as unfinished, even one that had become healthy.
 A quick power-off within HEALTHY_MS counts as an unfinished boot too; two in a row
 are needed before that alone means safe mode.
 On a filesystem the firmware cannot write (CircuitPython with the USB drive
@@ -67,9 +69,16 @@ def _write(root, starts, crash):
         return False
 
 
-def begin(root):
-    """(unfinished boots before this one, the last crash's text or None); counts this boot."""
+def begin(root, watchdog=False):
+    """(unfinished boots before this one, the last crash's text or None); counts this boot.
+
+    watchdog: this boot follows a reset by the watchdog's timeout. The boot it ended hung,
+    so it never finished, even when it had become healthy before and cleared the count.
+    (On rp2 the reset's reason outlives a soft reset: a main.py run again from the REPL
+    after a watchdog reset counts that boot once more.)"""
     starts, crash = _read(root)
+    if watchdog and starts < 1:
+        starts = 1
     _write(root, starts + 1, crash)
     return starts, crash
 
@@ -79,7 +88,8 @@ def safe_reason(starts, crash):
     if crash:
         return "the last boot crashed: %s" % crash
     if starts >= SAFE_AFTER:
-        return "%d boots in a row stopped within %d s (crash, watchdog or power)" % (starts, HEALTHY_MS // 1000)
+        return "%d boots in a row stopped within %d s or hung (crash, watchdog or power)" % (
+            starts, HEALTHY_MS // 1000)
     return None
 
 
@@ -103,7 +113,9 @@ class Guard:
         self.board = board
         self.proto = proto
         self.boot_ms = board.ticks_ms()
-        starts, crash = begin(board.root)
+        self.watchdog_reset = board.reset_by_watchdog()
+        starts, crash = begin(board.root, self.watchdog_reset)
+        self.unfinished_boots = starts
         self.safe_mode = safe_reason(starts, crash)   # why the calibration is not applied, or None
         self.errors = 0            # exceptions caught in the main loop since boot
         self.last_error = None
@@ -152,4 +164,5 @@ class Guard:
     def status(self):
         """Its part of `status`."""
         return {"safe_mode": self.safe_mode, "errors": self.errors, "last_error": self.last_error,
-                "uptime_ms": self.uptime_ms()}
+                "uptime_ms": self.uptime_ms(), "unfinished_boots": self.unfinished_boots,
+                "watchdog_reset": self.watchdog_reset}

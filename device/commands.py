@@ -43,7 +43,7 @@ def version(app, args):
 def status(app, args):
     flow = app.flow
     out = {"state": "fault" if app.supervisor.fault else ("calibrating" if flow.session else "survey"),
-           "config_problems": app.config_problems}
+           "config_problems": app.config_problems, "watchdog_ms": app.watchdog_ms}
     for part in (app.supervisor, app.guard, flow, app.output):
         out.update(part.status())
     if hasattr(gc, "mem_free"):   # MicroPython, CircuitPython

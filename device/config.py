@@ -86,6 +86,10 @@ SCHEMA = {
     "log_files": (4, "int", 1, 100),
     "log_reserve_bytes": (65536, "int", 0, 100000000),
     "stream": ("off", "choice:off|raw|corrected", 0, 0),
+    # the watchdog (boards with one the firmware can hand back, hal_micropython.py): a main-loop
+    # pass longer than this resets the board. The longest legitimate pass, the final solve, takes
+    # about 0.5 s on an RP2040; 8388 ms is the RP2040's longest timeout. Read at boot.
+    "watchdog_ms": (5000, "int", 1000, 8388),
 }
 
 

@@ -92,10 +92,26 @@ class Board:
         """True when the main loop should return (the simulation's power-off)."""
         return False
 
+    # ****** the watchdog ******
+    def watchdog_start(self, ms):
+        """Start the chip's watchdog with a timeout of ms, if this board has one the firmware can
+        hand back to the REPL (hal_micropython.py: the RP2040's); True when started. From then on
+        watchdog_feed() must come within ms, or the chip resets. None here: False."""
+        return False
+
+    def watchdog_feed(self):
+        """Restart the watchdog's count (the main loop, once a pass). Nothing without one."""
+
+    def reset_by_watchdog(self):
+        """True when this boot follows a reset by the watchdog's timeout (a hung firmware), not a
+        power-on or a reset asked for (machine.reset()). False when the board cannot tell."""
+        return False
+
     def hand_back(self):
         """The main loop has returned (the `repl` command, or the simulation's power-off):
         give the board back to the REPL. A HAL undoes here what it took from the REPL
-        (hal_micropython.py: the DRDY interrupt, Ctrl-C). Nothing by default."""
+        (hal_micropython.py: the DRDY interrupt, Ctrl-C; a watchdog that cannot be stopped is
+        fed from a timer from then on). Nothing by default."""
 
     # ****** serial (USB CDC) ******
     def serial_read(self):

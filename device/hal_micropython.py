@@ -7,6 +7,13 @@ ring absorbs). USB serial is sys.stdin/sys.stdout with Ctrl-C disabled while
 the app runs, so a stray 0x03 on the wire cannot stop the instrument; the
 `repl` command ends the app and turns Ctrl-C back on (hand_back), so mpremote
 can take the line without the button.
+
+The watchdog (RP2040 only, see _rp2040): the app starts machine.WDT and feeds it
+once a main-loop pass, so a hung loop resets the board (bootguard.py counts the
+reset). It cannot be stopped, so from `repl` on a machine.Timer feeds it while
+the REPL has the line, and boot.py calls keep_watchdog_fed() after every reset:
+a soft reset (mpremote's, at each step of a deploy) keeps the watchdog running
+but ends the timer.
 """
 
 import sys
@@ -26,6 +33,39 @@ except ImportError:
 # (the protocol asks >= 50 kB/s, docs/protocol.md). A flood lengthens a pass by a bounded
 # amount, which the DRDY ring absorbs (128 blocks: 1.28 s at the default rate and decimation).
 SERIAL_CHUNK = 2048
+
+# The RP2040's watchdog registers (datasheet 4.7.6): CTRL bit 30 ENABLE (a watchdog runs), REASON
+# bit 0 TIMER (the last reset was its count running out; machine.reset() sets FORCE, and
+# machine.reset_cause() says WDT_RESET for both). Other ports' watchdogs are not started: the
+# firmware could not tell after a soft reset that one runs (docs/limits.md).
+_WATCHDOG_CTRL = 0x40058000
+_WATCHDOG_REASON = 0x40058008
+_ENABLE = 1 << 30
+_TIMER = 1
+_REPL_WATCHDOG_MS = 8388   # the RP2040's longest timeout: the leash while the REPL has the line
+_REPL_FEED_MS = 1000       # the timer's period: seven of its callbacks may run late or be lost
+
+_feeder = None             # the Timer feeding the watchdog while the REPL has the line
+
+
+def _rp2040():
+    return sys.platform == "rp2" and "RP2040" in sys.implementation._machine
+
+
+def _feed_from_timer():
+    """Feed the running watchdog from a soft timer callback, which runs between bytecodes and
+    while the REPL waits for input: through mpremote's raw REPL and a person's typing."""
+    global _feeder
+    wdt = machine.WDT(timeout=_REPL_WATCHDOG_MS)   # on rp2 this reloads the running one
+    _feeder = machine.Timer(period=_REPL_FEED_MS, callback=lambda t: wdt.feed())
+
+
+def keep_watchdog_fed():
+    """boot.py, after every reset: a watchdog running now was started before a soft reset, whose
+    timers are gone: feed it until the app takes it over (Board.watchdog_start)."""
+    if _rp2040() and machine.mem32[_WATCHDOG_CTRL] & _ENABLE:
+        _feed_from_timer()
+
 
 try:
     micropython.alloc_emergency_exception_buf(100)  # a traceback from the ISR, not a second fault
@@ -54,6 +94,7 @@ class Board(hal.Board):
             self._poll.register(sys.stdin, select.POLLIN)
         self._rbuf = bytearray(SERIAL_CHUNK)
         self._one = bytearray(1)
+        self._wdt = None
         # App.wait calls idle() on every conversion: the C function itself, not a method around it
         self.idle = machine.idle
         try:
@@ -143,12 +184,29 @@ class Board(hal.Board):
     def idle(self):
         machine.idle()   # sleeps until the next interrupt (DRDY within 1/rate s)
 
+    # watchdog
+    def watchdog_start(self, ms):
+        global _feeder
+        if not _rp2040():
+            return False
+        if _feeder is not None:        # boot.py's timer: from now on only the main loop feeds it
+            _feeder.deinit()
+            _feeder = None
+        self._wdt = machine.WDT(timeout=ms)
+        self.watchdog_feed = self._wdt.feed   # the C method itself, once a pass
+        return True
+
+    def reset_by_watchdog(self):
+        return _rp2040() and bool(machine.mem32[_WATCHDOG_REASON] & _TIMER)
+
     def hand_back(self):
         self._drdy.irq(handler=None)   # the REPL has no use for the DRDY handler
         try:
             micropython.kbd_intr(3)    # Ctrl-C interrupts again: how mpremote gets in
         except AttributeError:
             pass
+        if self._wdt is not None:      # it cannot be stopped: fed while the REPL has the line
+            _feed_from_timer()
 
     # serial (USB CDC)
     def serial_read(self):

@@ -38,5 +38,8 @@ package("shared", files=["__init__.py", "calibration.py", "codes.py", "coverage.
                          "quick.py", "result.py", "solver.py", "start.py", "tempco.py"],
         base_path="..", opt=3)
 
-# Entry points: copied to the filesystem's root, never frozen (a user edits or replaces them).
-ROOT_FILES = {"micropython": ("main.py",), "circuitpython": ("code.py", "boot.py"), "sim": ()}
+# Entry points: copied to the filesystem's root, never frozen (a user edits or replaces them);
+# (source, name on the board) where they differ. MicroPython's boot.py keeps a watchdog the
+# firmware started fed through a soft reset; CircuitPython's remounts CIRCUITPY for the firmware.
+ROOT_FILES = {"micropython": ("main.py", ("boot_micropython.py", "boot.py")), "circuitpython": ("code.py", "boot.py"),
+              "sim": ()}

@@ -67,6 +67,9 @@ def _dry_run_files(stdout):
         if words[5:7] == ["fs", "cp"]:
             dest = words[-1][1:].rstrip("/")
             assert dest.split("/")[0] == STAGE, line
+            if not words[-1].endswith("/"):       # one file, named on the board as given
+                out.add(dest[len(STAGE) + 1:])
+                continue
             out.update("/".join(filter(None, [dest[len(STAGE) + 1:], os.path.basename(w)])) for w in words[8:-1])
     return out
 

@@ -111,7 +111,7 @@ DEVICE_MODULES = {
     "desktop/devicesim": {"app", "config", "hal_sim", "sim_wire", "store"},
     "desktop/bench": {"commands", "config", "protocol", "sim_wire", "store"},
 }
-ENTRY_POINTS = {"main", "code", "sim_main"}   # boot a board: the only importers of a HAL
+ENTRY_POINTS = {"main", "code", "sim_main", "boot_micropython"}   # boot a board: the only importers of a HAL
 # the calibration core: samples, fit, acceptance; it imports no protocol, command, app or HAL
 CORE = {"gates", "session", "acceptance"}
 # the owners of the firmware's state, by module: only app.py builds them (an entry point the App)

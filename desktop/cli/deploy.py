@@ -38,7 +38,7 @@ def _one_line(exc):
 
 def hand_back(port):
     """Ask a fluxcal firmware on `port` to give the line to the REPL (`repl`); False when none answered."""
-    from desktop.link import DeviceError, LinkError
+    from desktop.link import BusyError, DeviceError, LinkError
     from desktop.link.client import Device
 
     try:
@@ -48,6 +48,8 @@ def hand_back(port):
     try:
         fw = dev.connect().get("fw")
         dev.ask("repl")
+    except BusyError as exc:
+        raise CommandError(str(exc)) from None
     except DeviceError as exc:
         if exc.code == codes.BUSY:
             raise CommandError("the firmware on %s is calibrating: finish or cancel the calibration, then deploy"

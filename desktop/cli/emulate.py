@@ -11,6 +11,7 @@ HELP = "a virtual handheld on a pseudo-terminal: the firmware on the simulated f
 OPERATOR = {"follow": "follow", "turn": "hand", "hold": "hold"}     # --operator -> the operator's action
 KEYS = {"r": "hand", "h": "hold", "s": "spin", "f": "follow", "p": "press", "l": "long-press", "c": "power-cycle"}
 STATUS_S = 10.0
+BOOT_WAIT_S = 300.0   # the emulated Pico's boot takes wall seconds, many on a loaded machine
 
 
 def add_arguments(p):
@@ -111,9 +112,16 @@ def run(args):
         print("fluxcal emulate: virtual handheld (%s, %s) on %s" % (args.runtime, args.sensor, hh.port), flush=True)
         announced = announce_emulator(hh.port, args.runtime)    # `fluxcal status` without --port finds it
         if args.runtime != "cpython" and not args.bare:
-            _deploy_if_empty(hh, flash)
-            if args.runtime == "pico":    # its boot takes wall seconds: ready when the firmware answers
-                _await_firmware(hh)
+            # the port is printed, but until the firmware answers it is the emulator's: a client
+            # opening it meanwhile is told the board is busy, and cannot break the deploy
+            own = hh.hold_port("starting its firmware")
+            try:
+                _deploy_if_empty(hh, flash, own, wait_s=BOOT_WAIT_S if args.runtime == "pico" else 20.0)
+                if args.runtime == "pico":    # its boot takes wall seconds: ready when the firmware answers
+                    hh.hold_port("starting its firmware")
+                    _await_firmware(hh, own)
+            finally:
+                hh.release_port()
         print("ready: %s" % ("an empty board, its REPL on the port" if args.bare else "the firmware runs"),
               flush=True)
         if sys.stdin.isatty():
@@ -164,9 +172,10 @@ def _status(hh, now):
           % (now, hh.world.time, cap, hh.operator.mode, who), flush=True)
 
 
-def _deploy_if_empty(hh, flash):
+def _deploy_if_empty(hh, flash, own, wait_s):
     """A flash without firmware gets it as a board does: by fluxcal deploy's own code, over the
-    board's port with mpremote (MicroPython), or into its drive folder (CircuitPython), then a reset."""
+    board's port with mpremote (MicroPython), or into its drive folder (CircuitPython), then a reset.
+    own: the emulator's own line to the board (hold_port) while clients of hh.port wait."""
     import os
 
     from desktop.cli._errors import CommandError
@@ -177,24 +186,25 @@ def _deploy_if_empty(hh, flash):
     if getattr(hh, "fresh", None) is False or os.path.exists(os.path.join(flash, entry)):
         return      # (the Pico's flash is one file, FLASH/pico.flash: fresh until it exists)
     print("the flash holds no firmware: deploying it (fluxcal deploy)", flush=True)
+    hh.hold_port("deploying its firmware")
     try:
         if hh.runtime == "circuitpython":
             done = deploy_drive(flash)
             hh.act("power-cycle")
         else:
-            done = MicroPythonDeploy(hh.port, compiled=True).run()
+            done = MicroPythonDeploy(own, compiled=True).run()
     except DeployError as exc:
-        raise CommandError(" ".join(str(exc).split())) from None
-    check_version(hh.port, firmware_version(hh.runtime))
-    print(done, flush=True)
+        raise CommandError(" ".join(str(exc).split()).replace(own, hh.port)) from None
+    check_version(own, firmware_version(hh.runtime), wait_s=wait_s)
+    print(done.replace(own, hh.port), flush=True)
 
 
-def _await_firmware(hh):
+def _await_firmware(hh, own):
     """The emulated Pico boots at its emulated speed (seconds of wall time while the firmware's
     modules load): "ready" once its firmware answers, so that a client does not find it mute."""
     from desktop.cli.deploy import check_version
     from desktop.firmware.deploy import firmware_version
-    check_version(hh.port, firmware_version(hh.runtime), wait_s=300.0)
+    check_version(own, firmware_version(hh.runtime), wait_s=BOOT_WAIT_S)
 
 
 class _Keys:

@@ -52,6 +52,11 @@ def run(args):
     if (st.get("log") or {}).get("error"):
         faults.append("log: %s" % st["log"]["error"])
     print("faults: " + ("; ".join(faults) if faults else "none"))
+    if st.get("watchdog_reset"):
+        print("reset by the watchdog: the firmware's main loop hung (%d unfinished boots in a row before this one)"
+              % st.get("unfinished_boots", 0))
+    if st.get("safe_mode"):
+        print("safe mode, the stored calibration not applied: %s (set-cal or clear-cal ends it)" % st["safe_mode"])
     last = st.get("last_cal")
     if last:
         extra = " (%s)" % last["reason"] if last.get("reason") else ""

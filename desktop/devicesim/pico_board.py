@@ -10,6 +10,8 @@ its stdin and stdout are the board's USB CDC, its stderr one line per event ("pi
 opens /dev/ttyACM0. Why a pty held here rather than socat on a TCP port (the route
 ../shared/rp2/SOURCE.md measured): one process fewer to leave behind, no TCP port to pick,
 and the relay sees when the runner ends, so it can hang up the port as an unplugged board does.
+hold_port() gives the emulator a line of its own while clients of `port` are told the board is
+busy (port_gate.PortGate: `fluxcal emulate` deploying and starting its firmware).
 close() (and the interpreter's exit) ends the whole process group; the runner saves the flash
 file on SIGTERM and on EOF of its stdin, so it also saves when this process dies.
 
@@ -26,8 +28,8 @@ import signal
 import subprocess
 import threading
 import time
-import tty
 
+from desktop.devicesim.port_gate import PortGate
 from desktop.firmware.interpreters import pico_parts
 
 RUNNER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "pico", "runner.mjs")
@@ -55,7 +57,7 @@ class PicoBoard:
         self.events = []              # the runner's event lines, "pico: " cut off
         self._changed = threading.Condition()
         self._thread = None
-        self._master = self._slave = None
+        self.gate = None
 
     def __enter__(self):
         return self.start()
@@ -64,10 +66,10 @@ class PicoBoard:
         self.close()
 
     def start(self):
-        self._master, self._slave = os.openpty()
-        tty.setraw(self._slave)       # a byte pipe: no echo, no newline translation (USB CDC)
-        os.set_blocking(self._master, False)
-        self.port = os.ttyname(self._slave)
+        # what the board sends while no client reads is dropped rather than stalling the board
+        # (a host that does not read a CDC port loses its bytes)
+        self.gate = PortGate(drop_when_full=True)
+        self.port = self.gate.port
         cmd = ["node", RUNNER, "--modules", self.parts["node_modules"], "--firmware", self.parts["firmware"],
                "--bootrom", self.parts["bootrom"], "--flash", self.flash_file, "--idle", self.idle,
                "--high", ",".join(str(p) for p in self.high)]
@@ -93,15 +95,17 @@ class PicoBoard:
     # ****** the relay: pty <-> the runner's stdin/stdout; its stderr -> events ******
     def _relay(self):
         out, err = self.proc.stdout.fileno(), self.proc.stderr.fileno()
-        watched = [self._master, out, err]
+        watched = [out, err]
         partial = b""
+        gate = self.gate
         while out in watched:
+            ports = gate.fds()
             try:
-                ready, _, _ = select.select(watched, [], [], 0.2)
+                ready, _, _ = select.select(watched + ports, [], [], 0.2)
             except (OSError, ValueError):
                 break                 # closed under us by close()
-            if self._master in ready:
-                data = _read(self._master)
+            for fd in ports:
+                data = gate.read(fd) if fd in ready else b""
                 if data:
                     try:
                         self.proc.stdin.write(data)
@@ -111,7 +115,7 @@ class PicoBoard:
             if out in ready:
                 data = _read(out)
                 if data:
-                    self._to_port(data)
+                    gate.write(data)
                 else:
                     watched.remove(out)
             if err in ready:
@@ -131,14 +135,6 @@ class PicoBoard:
                 self.world.serve(r.read, w.write)
             except (BrokenPipeError, OSError):
                 pass              # the runner ended (close, a kill): its events say so
-
-    def _to_port(self, data):
-        """What the board sends; with no client reading, what the pty cannot hold is dropped
-        rather than stalling the board (a host that does not read a CDC port loses its bytes)."""
-        try:
-            os.write(self._master, data)
-        except BlockingIOError:
-            pass
 
     def _event(self, line):
         line = line[len("pico: "):] if line.startswith("pico: ") else line
@@ -165,14 +161,15 @@ class PicoBoard:
     def _hang_up(self):
         """The runner ended: close the port's ends, so a client reading it gets an error
         at once (as when a board is unplugged) instead of waiting for its deadline."""
-        for name in ("_master", "_slave"):
-            fd = getattr(self, name)
-            setattr(self, name, None)
-            if fd is not None:
-                try:
-                    os.close(fd)
-                except OSError:
-                    pass
+        if self.gate is not None:
+            self.gate.close()
+
+    def hold_port(self, doing):
+        """Clients of `port` are told the board is busy `doing`; the path of the emulator's own line."""
+        return self.gate.hold(doing)
+
+    def release_port(self):
+        self.gate.release()
 
     # ****** the power switch ******
     def power_cycle(self):

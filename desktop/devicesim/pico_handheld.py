@@ -61,5 +61,12 @@ class PicoHandheld:
         else:
             self.hands.act(action, arg)
 
+    def hold_port(self, doing):
+        """Clients of `port` are told the board is busy `doing` (port_gate.py); the emulator's own line."""
+        return self.board.hold_port(doing)
+
+    def release_port(self):
+        self.board.release_port()
+
     def close(self):
         self.board.close()

@@ -15,7 +15,8 @@
 
 The interpreter cannot share a pty slave with a client (both would read the
 same input), so it runs on an inner pty and a thread relays between that and
-the outer one, the client's.
+the outer one, the client's (port_gate.PortGate: hold_port() gives the
+emulator a line of its own while clients of `port` are told it is busy).
 """
 
 import os
@@ -25,6 +26,7 @@ import threading
 import time
 import tty
 
+from desktop.devicesim.port_gate import PortGate
 from desktop.firmware.interpreters import micropython_exe, missing_hint
 
 _CTRL_A, _CTRL_B, _CTRL_D = 0x01, 0x02, 0x04
@@ -39,6 +41,7 @@ class VirtualBoard:
             raise FileNotFoundError(missing_hint("micropython"))
         os.makedirs(os.path.join(self.flash, "lib"), exist_ok=True)
         self.port = None
+        self.gate = None
         self.reboots = 0
         self._proc = None
         self._raw = False
@@ -55,11 +58,10 @@ class VirtualBoard:
 
     def start(self):
         self._inner, inner_slave = os.openpty()
-        self._outer, self._outer_slave = os.openpty()
-        for fd in (inner_slave, self._outer_slave):
-            tty.setraw(fd)   # a byte pipe, no echo or newline translation: USB CDC
+        tty.setraw(inner_slave)   # a byte pipe, no echo or newline translation: USB CDC
         self._inner_slave = inner_slave
-        self.port = os.ttyname(self._outer_slave)
+        self.gate = PortGate()
+        self.port = self.gate.port
         self._boot(first=True)
         self._thread = threading.Thread(target=self._relay, name="virtual-board", daemon=True)
         self._thread.start()
@@ -93,7 +95,7 @@ class VirtualBoard:
             if r:
                 data = self._read(self._inner)
                 seen = (seen + data)[-256:]
-                os.write(self._outer, data)
+                self.gate.write(data)
 
     @staticmethod
     def _read(fd):
@@ -103,14 +105,18 @@ class VirtualBoard:
             return b""
 
     def _relay(self):
+        gate = self.gate
         while not self._stop.is_set():
-            r, _, _ = select.select([self._inner, self._outer], [], [], 0.05)
+            outer = gate.fds()
+            r, _, _ = select.select([self._inner] + outer, [], [], 0.05)
             if self._inner in r:
                 data = self._read(self._inner)
                 if data:
-                    os.write(self._outer, data)
-            if self._outer in r:
-                data = self._read(self._outer)
+                    gate.write(data)
+            for fd in outer:
+                if fd not in r:
+                    continue
+                data = gate.read(fd)
                 for b in data:
                     if b == _CTRL_A:
                         self._raw = True
@@ -131,10 +137,17 @@ class VirtualBoard:
                     data = self._read(self._inner)
                     if not data:
                         break
-                    os.write(self._outer, data)
-                os.write(self._outer, b"MPY: soft reboot\r\n")
+                    gate.write(data)
+                gate.write(b"MPY: soft reboot\r\n")
                 self.reboots += 1
                 self._boot()
+
+    def hold_port(self, doing):
+        """Clients of `port` are told the board is busy `doing`; the path of the emulator's own line."""
+        return self.gate.hold(doing)
+
+    def release_port(self):
+        self.gate.release()
 
     def close(self):
         self._stop.set()
@@ -143,7 +156,9 @@ class VirtualBoard:
         if self._proc is not None and self._proc.poll() is None:
             self._proc.kill()
             self._proc.wait()
-        for fd in (getattr(self, n, None) for n in ("_inner", "_inner_slave", "_outer", "_outer_slave")):
+        if self.gate is not None:
+            self.gate.close()
+        for fd in (getattr(self, n, None) for n in ("_inner", "_inner_slave")):
             if fd is not None:
                 try:
                     os.close(fd)

@@ -110,12 +110,17 @@ class MicroPythonDeploy:
         return mpremote(self.port, *clear, "fs", "mkdir", *(":" + d for d in sorted(dirs)))
 
     def copy_commands(self):
-        """One `fs cp` per folder on the board, the files keeping their names."""
-        by_dir = {}
+        """One `fs cp` per folder on the board, the files keeping their names; one more for each
+        file named otherwise on the board (MicroPython's boot.py from boot_micropython.py)."""
+        by_dir, renamed = {}, []
         for src, path in self.files:
-            by_dir.setdefault(_parent(path), []).append(self._local(src, path))
+            local = self._local(src, path)
+            if os.path.basename(local) == path.rpartition("/")[2]:
+                by_dir.setdefault(_parent(path), []).append(local)
+            else:
+                renamed.append(mpremote(self.port, "fs", "cp", "-f", local, ":%s/%s" % (STAGE, path)))
         return [mpremote(self.port, "fs", "cp", "-f", *srcs, ":" + "/".join(filter(None, (STAGE, d))) + "/")
-                for d, srcs in by_dir.items()]
+                for d, srcs in by_dir.items()] + renamed
 
     def commands(self, leftovers=()):
         return [self.info_command(), self.prepare_command(leftovers)] + self.copy_commands() + [

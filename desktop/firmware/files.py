@@ -82,7 +82,8 @@ def read_manifest(runtime="micropython"):
              "module": module, "package": package, "require": _refuse, "freeze": _refuse}
     with open(MANIFEST) as fh:
         exec(compile(fh.read(), MANIFEST, "exec"), scope)
-    roots = [(os.path.join(DEVICE, name), name) for name in scope.get("ROOT_FILES", {}).get(runtime, ())]
+    roots = [(os.path.join(DEVICE, name), name) if isinstance(name, str) else (os.path.join(DEVICE, name[0]), name[1])
+             for name in scope.get("ROOT_FILES", {}).get(runtime, ())]
     return meta.get("version"), collected, roots
 
 

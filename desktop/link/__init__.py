@@ -21,6 +21,10 @@ class LinkError(Exception):
     """The device cannot be reached or understood: one line, for a person."""
 
 
+class BusyError(LinkError):
+    """`fluxcal emulate` holds its board's port while it deploys and starts the firmware."""
+
+
 class DeviceError(LinkError):
     """The device answered a request with an error reply; .code is its stable code."""
 

@@ -11,7 +11,9 @@ request's "cmd"; events ("ev") can come before it. Events read while waiting
 for a reply are kept, in order, for next_event; a reply to a request this
 client did not make (left over from another program) is skipped and counted.
 pyserial blocks at most READ_SLICE_S per read, so every wait ends at its
-deadline even when the device says nothing at all.
+deadline even when the device says nothing at all. An `emulator_busy` event
+(`fluxcal emulate` deploying or starting its board's firmware) raises
+BusyError at once.
 """
 
 import collections
@@ -20,8 +22,9 @@ import time
 
 import serial
 
-from desktop.link import DeviceError, LinkError
+from desktop.link import BusyError, DeviceError, LinkError
 from desktop.link.lines import LineReader
+from shared.codes import EV_EMULATOR_BUSY
 from shared.codes import PROTOCOL_VERSION   # the version this client speaks (docs/protocol.md)
 
 READ_SLICE_S = 0.05    # one pyserial read blocks at most this long; deadlines are checked between reads
@@ -92,7 +95,10 @@ class Device:
             if time.monotonic() >= deadline:
                 return None
             self._ready.extend(self.reader.feed(self._read()))
-        return self._ready.popleft()
+        msg = self._ready.popleft()
+        if msg.get("ev") == EV_EMULATOR_BUSY:   # the emulator, not the firmware, answers: not now
+            raise BusyError(str(msg.get("msg") or "the emulated board is busy; try again in a moment"))
+        return msg
 
     def _read(self):
         try:

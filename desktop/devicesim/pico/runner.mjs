@@ -18,7 +18,9 @@
 //  2. Simulator.execute spins when the core sleeps with nothing pending; this loop yields to Node.
 //  3. Idle time is either paced to the wall clock (--idle paced: a person, mpremote's 1 s polls)
 //     or jumped to the next timer (--idle jump: tests and benches).
-//  4. The watchdog (machine.reset() uses it) has no reset action: the chip is re-created here.
+//  4. The watchdog (machine.reset() uses it) has no reset action: the chip is re-created here,
+//     with the watchdog's REASON register kept (TIMER or FORCE, as through a real watchdog reset).
+//     Its count running out (machine.WDT not fed) re-armed its alarm at 0 ns forever: stopped here.
 // The flash is made writable by patching the boot ROM's flash_range_erase / flash_range_program
 // to BKPT and doing the erase (fill 0xff) and program (AND, as NOR flash) in onBreak.
 import fs from 'node:fs';
@@ -101,7 +103,7 @@ const bootrom = patchedBootrom();
 // ****** the host's bytes, held until the board arms a USB OUT buffer (thing 1) ******
 const fromHost = [];                     // Buffers not yet handed to the board
 let pendingOut = null;                   // the size of the OUT buffer the board armed, or null
-let mcu, cdc, clock, resetAsked = null;
+let mcu, cdc, clock, resetAsked = null, resetReason = 0;
 
 function offerHostBytes() {
   if (pendingOut === null || fromHost.length === 0 || cdc.outEndpoint < 0) return;
@@ -139,7 +141,15 @@ function createChip(why) {
   // own start-up waits on things rp2040js does not model; its functions are still called)
   mcu.core.PC = FLASH_BASE;
   mcu.onBreak = (code) => flashOp(code);
-  mcu.peripherals[0x40058].onWatchdogTrigger = () => { resetAsked = 'watchdog'; };
+  const watchdog = mcu.peripherals[0x40058];
+  watchdog.reason = resetReason;         // REASON survives the watchdog's own reset, not a power cycle
+  watchdog.onWatchdogTrigger = () => {
+    // rp2040js re-arms its periodic alarm at once when the count reaches 0 (an endless loop inside
+    // clock.tick): the chip stops here, as the real one does when the watchdog resets it
+    watchdog.alarm.enable = false;
+    resetReason = watchdog.reason;       // TIMER (1): the count ran out; FORCE (2): machine.reset()
+    resetAsked = resetReason & 1 ? 'watchdog timeout' : 'watchdog';
+  };
   cdc = new USBCDC(mcu.usbCtrl);
   cdc.onSerialData = (bytes) => process.stdout.write(Buffer.from(bytes));
   pendingOut = null;
@@ -256,7 +266,7 @@ process.stdin.on('data', (chunk) => { fromHost.push(chunk); offerHostBytes(); wa
 process.stdin.on('end', () => quit(0));
 process.on('SIGTERM', () => quit(0));
 process.on('SIGINT', () => quit(0));
-process.on('SIGUSR2', () => { saveFlash(); createChip('power cycle'); wake(); });
+process.on('SIGUSR2', () => { saveFlash(); resetReason = 0; createChip('power cycle'); wake(); });
 // SIGUSR1: one line of figures (pico_board.PicoBoard.figures): emulated ns since power-on, of
 // which asleep, the awake cycles by part, and the bridge's counts
 process.on('SIGUSR1', () => say(`figures ${JSON.stringify({ ns: clock.nanos, asleep_ns: asleepNs,
