@@ -37,7 +37,7 @@ RULES = {
     "desktop/survey": (("numpy", "matplotlib"), ("shared", "desktop.formats", "desktop.sim.field")),
     "desktop/demo": (("numpy", "matplotlib"), ("desktop.sim", "desktop.methods", "desktop.devicesim",
                                                "desktop.firmware", "desktop.views", CODES)),
-    "desktop/bench": (("numpy", "serial"), ("shared", "desktop.sim", "desktop.methods", "desktop.devicesim",
+    "desktop/bench": (("numpy", "serial"), ("shared", "desktop.sim", "desktop.methods", "desktop.devicesim", "desktop.survey",
                                              "desktop.firmware", "desktop.formats", "desktop.link")),
     "desktop/link": (("serial",), (CODES,)),
     "desktop/cli": (("numpy", "matplotlib", "rich"), ("shared", "desktop")),

@@ -181,7 +181,7 @@ def fit_position(anom, samples, fdir, sensor_height_m):
     anom.fit_rms_nT = float(np.sqrt(cost / len(s)))
 
 
-def background_sigma(grid, tile_m=4.0):
+def background_sigma(grid, tile_m=3.0):
     """The map's quiet background (soil clutter and sensor noise), sigma in nT.
 
     On a small site the buried objects' own anomalies (a drum's 1/r^3 tails, a pipe's
@@ -223,9 +223,11 @@ def find_anomalies(grid, samples, fdir, sensor_height_m=0.3, threshold_nT=None):
         anom = Anomaly(n, e, peak, "linear" if az is not None else "compact")
         anom.azimuth_deg = az
         anom.depth_halfwidth_m = half_width_depth(grid, n, e, peak, sensor_height_m)
-        fit_position(anom, samples, np.asarray(fdir, dtype=float), sensor_height_m)
         found.append(anom)
-    return _merge_linear(found), threshold
+    found = _merge_linear(found)
+    for anom in found:
+        fit_position(anom, samples, np.asarray(fdir, dtype=float), sensor_height_m)
+    return found, threshold
 
 
 def _merge_linear(found):
