@@ -34,6 +34,17 @@ def test_walk_keeps_to_the_grid():
     assert np.degrees(np.arccos(np.clip(down, -1, 1))).max() < np.hypot(10 + 3, 10) * 1.01
 
 
+def test_parallel_lines_all_run_north():
+    walk = make_walk(np.random.default_rng(3), width_m=3, length_m=4, spacing_m=1.0, zigzag=False)
+    for t0, t1 in walk.line_marks:
+        at = walk.position(np.array([t0, t1]))
+        tol = 4 * MARK_JITTER_S * 1.1          # a press +-30 ms (4 sigma) at about 1 m/s
+        assert abs(at[0, 0]) < tol and abs(at[1, 0] - 4.0) < tol
+    # walking back between lines takes time: at 1.5 m/s the 4 m back, two 1.5 s turns
+    gaps = walk.line_marks[1:, 0] - walk.line_marks[:-1, 1]
+    assert np.all(gaps > 4.0 / 1.5 + 3.0 - 4 * MARK_JITTER_S)
+
+
 def test_site_field_along_the_walk_is_its_sources():
     sc = Scenario(motion="survey", ideal=True, noise=0.0, adc_noise=False, rate=250, motion_seed=2,
                   survey=dict(width_m=10, length_m=10, spacing_m=1.0, site_seed=4))
