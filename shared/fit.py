@@ -47,6 +47,7 @@ except (ImportError, ValueError):    # ValueError: a .mpy of another architectur
     fitsums = None
 # Which path sums the samples (the `status` key `sums`).
 SUMS_PATH = "python" if fitsums is None else "native"
+_native_add = None if fitsums is None else fitsums.add
 # Samples the native words take before they are drained into the exact sums: each
 # monomial of codes under 2**24 is under 2**96, so 2**24 of them stay inside the
 # words' 128-bit two's complement (fitsums.c).
@@ -87,8 +88,8 @@ class EllipsoidFit:
         self._span = 0                    #   0 <= (v + bias) < span = 2 * bias
         self._room = 0                    # samples the packs take before unpacking
         if fitsums is not None:
-            self._words = array("I", [0] * fitsums.WORDS)    # the native sums: 34 x 128 bits
-            self._left = _DRAIN           # samples the words take before draining
+            self._words = array("i", [0] * fitsums.WORDS)    # the native sums: 34 x 128 bits, count, left
+            self._words[fitsums.LEFT] = _DRAIN
 
     @classmethod
     def from_sums(cls, sums):
@@ -101,7 +102,7 @@ class EllipsoidFit:
     @property
     def n(self):
         """Number of samples accumulated."""
-        return self._s[0]
+        return self._s[0] if fitsums is None else self._s[0] + self._words[fitsums.COUNT]
 
     def sums(self):
         """A copy of the 35 power sums (shared.moments.ORDER)."""
@@ -153,33 +154,33 @@ class EllipsoidFit:
         _add_packed = add
 
         def add(self, x, y, z, _out=False):
-            # Codes under 2**24 in magnitude go into the native words; other ints (and the
-            # floats the pure path refuses) the packed way, into the same exact sums.
-            self._left -= 1
-            if self._left < 0:
+            # in C (a built-in in a class is not bound as a method, so this one call)
+            _native_add(self, x, y, z, _out)
+
+        def _add_slow(self, x, y, z, _out=False):
+            # what the native add hands back: the words due for draining, or a code they do not
+            # take (2**24 or more, a bool, a float to refuse): the packed way, into the same sums
+            if self._words[fitsums.LEFT] <= 0:
                 self._drain()
-            if fitsums.add(self._words, x, y, z, _out):
-                self._s[0] += -1 if _out else 1
-            else:
-                self._add_packed(x, y, z, _out)
+            self._add_packed(x, y, z, _out)
 
         def _drain(self):
             """Add the native words into the sums and zero them: sum n is the 128-bit two's
-            complement in words 4(n-1) .. 4n-1, least significant first."""
+            complement in words 4(n-1) .. 4n-1, least significant first (the top word signed)."""
             w = self._words
-            s = self._s
-            if self._left < _DRAIN:
+            if w[fitsums.LEFT] < _DRAIN:
+                s = self._s
+                s[0] += w[fitsums.COUNT]
+                m = 0xFFFFFFFF
                 for n in range(1, COUNT):
                     j = 4 * n - 4
-                    v = w[j] | (w[j + 1] << 32) | (w[j + 2] << 64) | (w[j + 3] << 96)
-                    if v >> 127:
-                        v -= 1 << 128
-                    s[n] += v
-                    w[j] = w[j + 1] = w[j + 2] = w[j + 3] = 0
-            self._left = _DRAIN
+                    s[n] += (w[j] & m) | ((w[j + 1] & m) << 32) | ((w[j + 2] & m) << 64) | (w[j + 3] << 96)
+                for j in range(fitsums.WORDS):
+                    w[j] = 0
+            w[fitsums.LEFT] = _DRAIN
 
     def remove(self, x, y, z):
-        if self._s[0] < 1:
+        if self.n < 1:
             raise ValueError("remove from an empty fit")
         self.add(x, y, z, True)
 

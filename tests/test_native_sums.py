@@ -37,7 +37,7 @@ def _run(argv):
 def reference():
     got = _run([sys.executable, SCRIPT, REPO, ""])
     assert got["path"] == "python"         # CPython never loads a .mpy
-    assert set(got["sums"][2]) == {"0"}    # everything added was removed
+    assert set(got["sums"][3]) == {"0"}    # everything added was removed
     return got
 
 

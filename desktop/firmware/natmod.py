@@ -1,7 +1,7 @@
 """The firmware's native module (device/native/fitsums.c) as .mpy files, one per architecture.
 
     python -m desktop.firmware.natmod build    # build what is missing (cached in build/)
-    natmod_path("armv6m")                      # build/interpreters/natmod/armv6m/fitsums.mpy, or None
+    natmod_path("armv6m")                      # build/interpreters/natmod/<sources>/armv6m/fitsums.mpy, or None
     natmod_for(decode_mpy(board_mpy))          # the file a board loads, or None (pure Python there)
 
 Built with MicroPython's native-module tooling (py/dynruntime.mk, tools/mpy_ld.py) from the
@@ -12,6 +12,7 @@ loads no MicroPython .mpy and keeps the pure-Python sums.
 """
 
 import glob
+import hashlib
 import importlib.util
 import os
 import shutil
@@ -43,10 +44,18 @@ def _stamp():
     return "\n".join(parts)
 
 
+def _out(arch):
+    """build/interpreters/natmod/SOURCES/ARCH: a folder per version of the sources, so checkouts
+    sharing build/ (worktrees) keep each their own."""
+    stamp = _stamp()
+    digest = hashlib.sha256(stamp.encode()).hexdigest()[:12] if stamp else "none"
+    return os.path.join(BUILD, digest, str(arch))
+
+
 def _stamp_ok(arch):
     stamp = _stamp()
     try:
-        with open(os.path.join(BUILD, arch, "recipe")) as fh:
+        with open(os.path.join(_out(arch), "recipe")) as fh:
             return stamp is not None and fh.read() == stamp
     except OSError:
         return False
@@ -54,7 +63,7 @@ def _stamp_ok(arch):
 
 def natmod_path(arch):
     """The built fitsums.mpy for `arch` (an mpy-cross -march name), or None."""
-    path = os.path.join(BUILD, str(arch), MODULE + ".mpy")
+    path = os.path.join(_out(arch), MODULE + ".mpy")
     return path if arch in ARCHS and os.path.exists(path) and _stamp_ok(arch) else None
 
 
@@ -110,7 +119,7 @@ def build(arch, log=print):
         log("%-20s missing: %s" % (label, "this machine lacks " + missing if missing else
                                    "no %s (../shared beside the repository)" % os.path.join(SHARED, TARBALL)))
         return None
-    out = os.path.join(BUILD, arch)
+    out = _out(arch)
     shutil.rmtree(out, ignore_errors=True)
     os.makedirs(out)
     for name in os.listdir(SOURCE):

@@ -2,42 +2,44 @@
 // summed in machine words (a MicroPython native module, .mpy).
 //
 //     import fitsums
-//     acc = array.array("I", [0] * fitsums.WORDS)     # 34 sums x 4 words, zeroed
-//     fitsums.add(acc, x, y, z, False)     # True: the sample is removed instead
+//     class Fit:
+//         add = fitsums.add            # a method: add(self, x, y, z, out=False)
+//     fit._words = array.array("i", [0] * fitsums.WORDS)
+//     fit._words[fitsums.LEFT] = samples the words may take before draining
 //
 // Each sum is a 128-bit two's-complement integer in four 32-bit words, least
-// significant first, at acc[4*(n-1) .. 4*n-1] for storage index n (shared.moments.ORDER;
-// index 0, the count, stays in Python). Sums are exact modulo 2^128, so they are exact
-// whenever the true sum fits in 127 bits and a sign: with |v| < 2^24 each monomial is
-// under 2^96 in magnitude, and shared.fit drains the words into its Python integers
-// before 2^24 samples have been added or removed (2^24 * 2^96 = 2^120).
+// significant first, at _words[4*(n-1) .. 4*n-1] for storage index n (shared.moments.ORDER);
+// _words[COUNT] is the net count of samples added (index 0's share, signed), and
+// _words[LEFT] counts down the samples before the words must be drained. Sums are exact
+// modulo 2^128, so exact while the true sum fits in 127 bits and a sign: with |v| < 2^24
+// each monomial is under 2^96 in magnitude, and shared.fit drains the words into its
+// Python integers before 2^24 samples (2^24 * 2^96 = 2^120).
 //
-// add() returns False, touching nothing, for an argument that is not a small int or
-// whose magnitude is 2^24 or more: the caller then takes the pure-Python path (which
-// also raises the error for a float). MicroPython's small ints have the same tag on
+// A code that is not a small int, or whose magnitude is 2^24 or more, and a sample that
+// finds LEFT at 0, go to self._add_slow(x, y, z, out) (pure Python: it drains, and sums
+// any int exactly, or refuses a float). MicroPython's small ints have the same tag on
 // every object representation, so one build serves an architecture.
 
 #include "py/dynruntime.h"
 
 #define SUMS (34)
-#define WORDS (4 * SUMS)
+#define COUNT (4 * SUMS)
+#define LEFT (COUNT + 1)
+#define WORDS (COUNT + 2)
 #define LIMIT (1 << 24)
 
-// storage order (shared.moments.ORDER) as products of two factors from
-// F = [1, x, y, z, xx, xy, xz, yy, yz, zz]: degree 1 = v * 1, 2 = v * v,
-// 3 = (degree 2) * v, 4 = (degree 2) * (degree 2)
-static const uint8_t FACTORS[SUMS][2] = {
-    {1, 0}, {2, 0}, {3, 0},                                              // x y z
-    {1, 1}, {1, 2}, {1, 3}, {2, 2}, {2, 3}, {3, 3},                      // xx xy xz yy yz zz
-    {4, 1}, {4, 2}, {4, 3}, {7, 1}, {5, 3}, {9, 1},                      // xxx xxy xxz xyy xyz xzz
-    {7, 2}, {7, 3}, {9, 2}, {9, 3},                                      // yyy yyz yzz zzz
-    {4, 4}, {4, 5}, {4, 6}, {4, 7}, {4, 8}, {4, 9},                      // x^4 x3y x3z x2y2 x2yz x2z2
-    {5, 7}, {5, 8}, {5, 9}, {6, 9},                                      // xy3 xy2z xyz2 xz3
-    {7, 7}, {7, 8}, {7, 9}, {8, 9}, {9, 9},                              // y^4 y3z y2z2 yz3 z^4
+// the factors F = [x, y, z, xx, xy, xz, yy, yz, zz] (indices 0..8) of the degree-3 and -4
+// sums in storage order (shared.moments.ORDER): degree 3 = (degree 2) * v, 4 = (2) * (2)
+static const uint8_t FACTORS[25][2] = {
+    {3, 0}, {3, 1}, {3, 2}, {6, 0}, {4, 2}, {8, 0},                      // xxx xxy xxz xyy xyz xzz
+    {6, 1}, {6, 2}, {8, 1}, {8, 2},                                      // yyy yyz yzz zzz
+    {3, 3}, {3, 4}, {3, 5}, {3, 6}, {3, 7}, {3, 8},                      // x^4 x3y x3z x2y2 x2yz x2z2
+    {4, 6}, {4, 7}, {4, 8}, {5, 8},                                      // xy3 xy2z xyz2 xz3
+    {6, 6}, {6, 7}, {6, 8}, {7, 8}, {8, 8},                              // y^4 y3z y2z2 yz3 z^4
 };
 
 // a * b in 64 bits: the Cortex-M0+ multiplies 32 x 32 -> 32 only, and libgcc's
-// 64-bit multiply is not linked into a native module, so four 16-bit products there
+// 64-bit multiply is not linked into a native module, so 16-bit products there
 static inline uint64_t mul32(uint32_t a, uint32_t b) {
     #if defined(__ARM_ARCH_6M__)
     uint32_t al = a & 0xffff, ah = a >> 16, bl = b & 0xffff, bh = b >> 16;
@@ -48,51 +50,30 @@ static inline uint64_t mul32(uint32_t a, uint32_t b) {
     #endif
 }
 
-// a * b for |a|, |b| < 2^32, by magnitudes (no 64-bit multiply, as above)
-static inline int64_t smul32(int64_t a, int64_t b) {
-    uint64_t m = mul32((uint32_t)(a < 0 ? -a : a), (uint32_t)(b < 0 ? -b : b));
-    return (a < 0) != (b < 0) ? -(int64_t)m : (int64_t)m;
+// a * b for b < 2^16
+static inline uint64_t mul32x16(uint32_t a, uint32_t b) {
+    #if defined(__ARM_ARCH_6M__)
+    return ((uint64_t)((a >> 16) * b) << 16) + (a & 0xffff) * b;
+    #else
+    return (uint64_t)a * b;
+    #endif
 }
 
-// acc += a * b (or -= when negate), in 128-bit two's complement; |a|, |b| < 2^63
-static void add_product(uint32_t *acc, int64_t a, int64_t b, bool negate) {
-    uint64_t ua = (uint64_t)a, ub = (uint64_t)b;
-    if (a < 0) {
-        ua = -ua;
-        negate = !negate;
-    }
-    if (b < 0) {
-        ub = -ub;
-        negate = !negate;
-    }
-    uint32_t a0 = (uint32_t)ua, a1 = (uint32_t)(ua >> 32), b0 = (uint32_t)ub, b1 = (uint32_t)(ub >> 32);
-    // the 128-bit magnitude, column by column: p0 + 2^32 mid + 2^64 hi
-    uint64_t t = mul32(a0, b0);
-    uint32_t p[4];
-    p[0] = (uint32_t)t;
-    uint64_t mid = t >> 32;
-    t = mul32(a0, b1);
-    mid += (uint32_t)t;
-    uint64_t hi = t >> 32;
-    t = mul32(a1, b0);
-    mid += (uint32_t)t;
-    hi += t >> 32;
-    p[1] = (uint32_t)mid;
-    hi += (mid >> 32) + mul32(a1, b1);   // the product is < 2^126: hi cannot wrap
-    p[2] = (uint32_t)hi;
-    p[3] = (uint32_t)(hi >> 32);
-    // subtracting is adding the complement plus one: ~p + 1 = -p
+// acc += m (or -= when negate), m = m0 + 2^32 m1 + 2^64 m2 a magnitude; subtracting is
+// adding the complement plus one (~m + 1 = -m), carried through the four words
+static inline void accumulate(uint32_t *acc, uint32_t m0, uint32_t m1, uint32_t m2, bool negate) {
     uint32_t flip = negate ? 0xffffffff : 0;
-    uint64_t carry = negate ? 1 : 0;
-    for (int i = 0; i < 4; i++) {
-        carry += (uint64_t)acc[i] + (p[i] ^ flip);
-        acc[i] = (uint32_t)carry;
-        carry >>= 32;
-    }
+    uint64_t c = (uint64_t)acc[0] + (m0 ^ flip) + (negate ? 1 : 0);
+    acc[0] = (uint32_t)c;
+    c = (c >> 32) + acc[1] + (m1 ^ flip);
+    acc[1] = (uint32_t)c;
+    c = (c >> 32) + acc[2] + (m2 ^ flip);
+    acc[2] = (uint32_t)c;
+    acc[3] += (uint32_t)(c >> 32) + flip;
 }
 
-// a small int with |v| < LIMIT into *v; false for anything else
-static bool small_code(mp_obj_t o, int64_t *v) {
+// a small int with |v| < LIMIT: its magnitude and sign; false for anything else
+static bool small_code(mp_obj_t o, uint64_t *mag, bool *neg) {
     if (!mp_obj_is_small_int(o)) {
         return false;
     }
@@ -100,40 +81,62 @@ static bool small_code(mp_obj_t o, int64_t *v) {
     if (n <= -LIMIT || n >= LIMIT) {
         return false;
     }
-    *v = n;
+    *neg = n < 0;
+    *mag = (uint64_t)(n < 0 ? -n : n);
     return true;
 }
 
-// add(acc, x, y, z, out): the sample's 34 monomials added to (out: subtracted from) acc
+// add(self, x, y, z[, out]): the sample's 34 monomials added to (out: subtracted from) self._words
 static mp_obj_t add(size_t n_args, const mp_obj_t *args) {
+    mp_obj_t out = n_args > 4 ? args[4] : mp_const_false;
     mp_buffer_info_t bufinfo;
-    mp_get_buffer_raise(args[0], &bufinfo, MP_BUFFER_RW);
+    mp_get_buffer_raise(mp_load_attr(args[0], MP_QSTR__words), &bufinfo, MP_BUFFER_RW);
     if (bufinfo.len < WORDS * sizeof(uint32_t)) {
-        mp_raise_ValueError(MP_ERROR_TEXT("fitsums: acc holds fewer than WORDS words"));
+        mp_raise_ValueError(MP_ERROR_TEXT("fitsums: _words holds fewer than WORDS words"));
     }
-    int64_t f[10];
-    f[0] = 1;
-    if (!small_code(args[1], &f[1]) || !small_code(args[2], &f[2]) || !small_code(args[3], &f[3])) {
-        return mp_const_false;
+    int32_t *words = (int32_t *)bufinfo.buf;
+    // magnitudes (under 2^24, then 2^48) and signs of F = [x, y, z, xx, xy, xz, yy, yz, zz]
+    uint64_t m[9];
+    bool s[9];
+    if (words[LEFT] <= 0 || !small_code(args[1], &m[0], &s[0]) || !small_code(args[2], &m[1], &s[1]) ||
+        !small_code(args[3], &m[2], &s[2])) {
+        mp_obj_t call[4] = {args[1], args[2], args[3], out};
+        return mp_call_function_n_kw(mp_load_attr(args[0], MP_QSTR__add_slow), 4, 0, call);
     }
-    f[4] = smul32(f[1], f[1]);
-    f[5] = smul32(f[1], f[2]);
-    f[6] = smul32(f[1], f[3]);
-    f[7] = smul32(f[2], f[2]);
-    f[8] = smul32(f[2], f[3]);
-    f[9] = smul32(f[3], f[3]);
-    bool negate = mp_obj_is_true(args[4]);
-    uint32_t *acc = (uint32_t *)bufinfo.buf;
-    for (int n = 0; n < SUMS; n++) {
-        add_product(acc + 4 * n, f[FACTORS[n][0]], f[FACTORS[n][1]], negate);
+    static const uint8_t SQUARES[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};
+    for (int k = 0; k < 6; k++) {
+        int i = SQUARES[k][0], j = SQUARES[k][1];
+        m[3 + k] = mul32((uint32_t)m[i], (uint32_t)m[j]);
+        s[3 + k] = s[i] != s[j];
     }
-    return mp_const_true;
+    bool negate = mp_obj_is_true(out);
+    words[LEFT] -= 1;
+    words[COUNT] += negate ? -1 : 1;
+    uint32_t *acc = (uint32_t *)words;
+    // degrees 1 and 2: the factors themselves
+    for (int k = 0; k < 9; k++, acc += 4) {
+        accumulate(acc, (uint32_t)m[k], (uint32_t)(m[k] >> 32), 0, s[k] != negate);
+    }
+    // degrees 3 and 4: a * b with a < 2^48, b < 2^48, column by column in 32-bit words
+    for (int k = 0; k < 25; k++, acc += 4) {
+        int i = FACTORS[k][0], j = FACTORS[k][1];
+        uint32_t a0 = (uint32_t)m[i], a1 = (uint32_t)(m[i] >> 32), b0 = (uint32_t)m[j], b1 = (uint32_t)(m[j] >> 32);
+        uint64_t t = mul32(a0, b0);
+        uint32_t p0 = (uint32_t)t;
+        uint64_t mid = (t >> 32) + mul32x16(a0, b1) + mul32x16(b0, a1);     // under 2^50
+        uint32_t p1 = (uint32_t)mid;
+        uint32_t p2 = (uint32_t)(mid >> 32) + a1 * b1;                       // the product is under 2^96
+        accumulate(acc, p0, p1, p2, (s[i] != s[j]) != negate);
+    }
+    return mp_const_none;
 }
-static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(add_obj, 5, 5, add);
+static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(add_obj, 4, 5, add);
 
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
     MP_DYNRUNTIME_INIT_ENTRY
     mp_store_global(MP_QSTR_add, MP_OBJ_FROM_PTR(&add_obj));
     mp_store_global(MP_QSTR_WORDS, MP_OBJ_NEW_SMALL_INT(WORDS));
+    mp_store_global(MP_QSTR_COUNT, MP_OBJ_NEW_SMALL_INT(COUNT));
+    mp_store_global(MP_QSTR_LEFT, MP_OBJ_NEW_SMALL_INT(LEFT));
     MP_DYNRUNTIME_INIT_EXIT
 }

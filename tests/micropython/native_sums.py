@@ -43,6 +43,7 @@ def cases(fit):
             kept.append((x, y, z))
     for x, y, z in kept:
         f.remove(x, y, z)
+    out.append([f.n])           # the count before the words are drained
     out.append(f.sums())
     # the extremes in every combination, then a long run at full scale: x^4 alone
     # passes 2**64 at the first sample and 2**100 within the run
