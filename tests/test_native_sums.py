@@ -3,7 +3,7 @@
 tests/micropython/native_sums.py feeds shared.fit.EllipsoidFit the same codes on CPython
 (the pure-Python sums: the reference) and on every interpreter a board has, with the
 fitsums.mpy deploy would pick for it (desktop.firmware.natmod.natmod_for its _mpy) on the
-path: random codes with a tenth removed, the ±2**23 extremes in every combination and
+path (and on the emulated Pico and Cortex-M3, armv6m and armv7m): random codes with a tenth removed, the ±2**23 extremes in every combination and
 a long run at full scale (degree-4 sums far past 64 bits), all of it removed again,
 codes past the native words' range and bools mixed in, drains mid-stream, a merge.
 Every sum must be the same integer. The MicroPython builds must take the native path;
@@ -13,6 +13,7 @@ not built is a skip saying so (a failure under FLUXCAL_REQUIRE_INTERPRETERS).
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 
@@ -41,17 +42,19 @@ def reference():
     return got
 
 
+def _missing(msg):
+    """Skip saying why (fail under FLUXCAL_REQUIRE_INTERPRETERS, as CI sets it)."""
+    if os.environ.get("FLUXCAL_REQUIRE_INTERPRETERS"):
+        pytest.fail(msg)
+    pytest.skip(msg)
+
+
 def _need_natmod(exe, name):
     """The fitsums.mpy for the interpreter's _mpy, or skip (fail under FLUXCAL_REQUIRE_INTERPRETERS)."""
     out = subprocess.run([exe, "-c", "import sys; print(sys.implementation._mpy)"], capture_output=True, text=True)
     target = decode_mpy(int(out.stdout.split()[-1]))
     path = natmod_for(target)
-    if path is None:
-        msg = "no fitsums.mpy for %s (%s): make interpreters" % (name, target)
-        if os.environ.get("FLUXCAL_REQUIRE_INTERPRETERS"):
-            pytest.fail(msg)
-        pytest.skip(msg)
-    return path
+    return path or _missing("no fitsums.mpy for %s (%s): make interpreters" % (name, target))
 
 
 @pytest.mark.parametrize("name", INTERPRETERS)
@@ -73,12 +76,7 @@ def test_native_sums_on_the_emulated_pico(reference, tmp_path):
     from desktop.firmware.interpreters import pico_parts
     from desktop.firmware.natmod import natmod_path
 
-    natmod = natmod_path("armv6m")
-    if natmod is None:
-        msg = "no fitsums.mpy for armv6m: make interpreters"
-        if os.environ.get("FLUXCAL_REQUIRE_INTERPRETERS"):
-            pytest.fail(msg)
-        pytest.skip(msg)
+    natmod = natmod_path("armv6m") or _missing("no fitsums.mpy for armv6m: make interpreters")
     cross = pico_parts()["mpy_cross"]
     (tmp_path / "disk" / "shared").mkdir(parents=True)
     for name in os.listdir(os.path.join(REPO, "shared")):
@@ -86,12 +84,36 @@ def test_native_sums_on_the_emulated_pico(reference, tmp_path):
             subprocess.run([cross, "-o", str(tmp_path / "disk" / "shared" / (name[:-3] + ".mpy")),
                             os.path.join(REPO, "shared", name)], check=True)
     subprocess.run([cross, "-o", str(tmp_path / "disk" / "native_sums.mpy"), SCRIPT], check=True)
-    with open(natmod, "rb") as src, open(tmp_path / "disk" / "fitsums.mpy", "wb") as dst:
-        dst.write(src.read())
+    shutil.copyfile(natmod, tmp_path / "disk" / "fitsums.mpy")
     with PicoBoard(str(tmp_path / "pico.flash"), ) as board:
         run = "import sys; sys.path.insert(0, '/disk'); import native_sums; native_sums.main('/disk', '/disk')"
         got = _run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", str(tmp_path / "disk"), ":",
                     "+", "exec", run])
+    assert got["path"] == "native"
+    assert got["sums"] == reference["sums"]
+    assert got["refused"] == reference["refused"]
+
+
+def test_native_sums_on_the_emulated_cortex_m3(reference, tmp_path, mpy_cross):
+    """The armv7m build on bare-metal MicroPython in qemu (Cortex-M3, 31-bit small ints), from the
+    board's ROM filesystem, as tests/test_shared_on_cortexm.py runs shared/ there."""
+    need("qemu-m3")
+    if shutil.which("qemu-system-arm") is None:
+        _missing("qemu-system-arm is missing")
+    from desktop.devicesim.qemu_board import QemuBoard
+    from desktop.firmware.natmod import natmod_path
+
+    natmod = natmod_path("armv7m") or _missing("no fitsums.mpy for armv7m: make interpreters")
+    rom = tmp_path / "rom"
+    (rom / "lib" / "shared").mkdir(parents=True)
+    for name in os.listdir(os.path.join(REPO, "shared")):
+        if name.endswith(".py"):
+            subprocess.run([mpy_cross, "-o", str(rom / "lib" / "shared" / (name[:-3] + ".mpy")),
+                            os.path.join(REPO, "shared", name)], check=True)
+    subprocess.run([mpy_cross, "-o", str(rom / "native_sums.mpy"), SCRIPT], check=True)
+    shutil.copyfile(natmod, rom / "fitsums.mpy")
+    with QemuBoard(rom=str(rom)) as board:
+        got = json.loads(board.exec("import native_sums\nnative_sums.main('/rom/lib', '/rom')").splitlines()[-1])
     assert got["path"] == "native"
     assert got["sums"] == reference["sums"]
     assert got["refused"] == reference["refused"]

@@ -104,6 +104,16 @@ class LoopBoard:
             self.handler(None)
             heap_unlock()
 
+    # no watchdog on the loop-back board (hal.Board's defaults: bootguard asks at boot)
+    def watchdog_start(self, ms):
+        return False
+
+    def watchdog_feed(self):
+        pass
+
+    def reset_by_watchdog(self):
+        return False
+
     def serial_read(self):
         return None
 
