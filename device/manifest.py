@@ -35,7 +35,7 @@ elif options.runtime == "sim":
 # not fit). tests/test_firmware_files.py checks this list against what the firmware imports.
 package("shared", files=["__init__.py", "calibration.py", "codes.py", "coverage.py", "errors.py", "fit.py",
                          "iteration.py", "linalg.py", "moments.py", "predicted.py", "prior.py", "quadric.py",
-                         "quick.py", "result.py", "solver.py", "start.py", "tempco.py"],
+                         "quick.py", "response.py", "result.py", "solver.py", "start.py", "tempco.py"],
         base_path="..", opt=3)
 
 # Entry points: copied to the filesystem's root, never frozen (a user edits or replaces them);

@@ -29,9 +29,14 @@ sensor's raw reading has offset b + offset_per_c tau and raw axis i gain
     h_c = M diag(1 / (1 + gain_per_c tau)) (h - b - offset_per_c tau)
 
 (at_temperature). The matrix and offset of the record are those at t0_c.
+
+The sensor's response (optional key "response", shared/response.py): the time constants
+a slow sensor's lag is undone with before M and b apply; carried along, not applied here.
 """
 
 import math
+
+from shared.response import check_response
 
 FORMAT_VERSION = 1
 
@@ -130,7 +135,7 @@ def check_tempco(tc):
 
 
 class Calibration:
-    def __init__(self, matrix, offset, field, diagnostics=None, meta=None, tempco=None):
+    def __init__(self, matrix, offset, field, diagnostics=None, meta=None, tempco=None, response=None):
         if not isinstance(matrix, (list, tuple)) or len(matrix) != 3:
             raise ValueError("matrix must be 3 rows of 3 numbers")
         self.matrix = [_vector(row, "matrix[%d]" % i) for i, row in enumerate(matrix)]
@@ -151,6 +156,7 @@ class Calibration:
         self.meta = dict(meta) if meta else {}
         # temperature coefficients (module docstring), validated whole, or None
         self.tempco = None if tempco is None else check_tempco(tempco)
+        self.response = None if response is None else check_response(response)
         # The offset as an integer and a fraction (|frac| <= 0.5, exact): an integer
         # input (ADC codes, boxcar sums) has the integer part subtracted in integer
         # arithmetic, so no code of several million becomes a float before it is
@@ -195,6 +201,7 @@ class Calibration:
             self.diagnostics,
             self.meta,
             tc,
+            self.response,
         )
 
     def at_temperature(self, temp_c):
@@ -220,7 +227,7 @@ class Calibration:
         d1 = 1.0 / (1.0 + g[1] * tau)
         d2 = 1.0 / (1.0 + g[2] * tau)
         c = Calibration([[row[0] * d0, row[1] * d1, row[2] * d2] for row in self.matrix], self.offset,
-                        self.field, self.diagnostics, self.meta)
+                        self.field, self.diagnostics, self.meta, None, self.response)
         bi = self._b_int
         c._b_int = list(bi)
         c._b_frac = [self._b_frac[i] + offset_per_c[i] * tau for i in range(3)]
@@ -246,6 +253,11 @@ class Calibration:
             for k in ("offset_per_c", "gain_per_c", "range_c"):
                 tc[k] = list(tc[k])
             d["tempco"] = tc
+        if self.response is not None:
+            d["response"] = dict(self.response)
+            for k in ("tau_s", "tau_sigma_s"):
+                if k in d["response"]:
+                    d["response"][k] = list(d["response"][k])
         return d
 
     @classmethod
@@ -265,7 +277,7 @@ class Calibration:
             raise ValueError("diagnostics and meta must be JSON objects")
         _check_fields(meta, "meta", _META_NUMBERS, _META_TEXT)
         _check_fields(diagnostics, "diagnostics", _DIAG_NUMBERS, ())
-        cal = cls(d["matrix"], d["offset"], d["field"], diagnostics, meta, d.get("tempco"))
+        cal = cls(d["matrix"], d["offset"], d["field"], diagnostics, meta, d.get("tempco"), d.get("response"))
         problem = plausibility_problem(cal)
         if problem:
             raise ValueError(problem)

@@ -160,4 +160,4 @@ def attach(cal, tempco):
     d = float(t1) - tc["t0_c"]
     tc["gain_per_c"] = [g / (1.0 + g * d) for g in tc["gain_per_c"]]
     tc["t0_c"] = float(t1)
-    return Calibration(cal.matrix, cal.offset, cal.field, cal.diagnostics, cal.meta, tc)
+    return Calibration(cal.matrix, cal.offset, cal.field, cal.diagnostics, cal.meta, tc, cal.response)

@@ -1,4 +1,4 @@
-"""fluxcal fit RAW -o CAL.json [--prior OLD.json] [--max-predicted NT | --accept-anyway]
+"""fluxcal fit RAW -o CAL.json [--prior OLD.json] [--max-predicted NT | --accept-anyway] [--lag TAU_S|auto]
 
 The written calibration's predicted full-sphere error is desktop.methods.refusal's
 predicted_error, the one `fluxcal report` gives too (the core's white-noise value
@@ -8,12 +8,17 @@ refuses it (reason predicted_error_too_high, device/acceptance.py), unless
 --accept-anyway. A fit on samples that cover too little (degenerate_coverage) or
 lie on no ellipsoid (not_ellipsoid) is never written. Each refusal names its cause
 (refusal.cause).
+
+--lag undoes a first-order sensor's lag before the fit (desktop.methods.lag): given, or
+estimated per axis (auto); then the predicted error holds the estimate's uncertainty too,
+and a response the estimate cannot identify, or that is not first order, says so.
 """
 
 import os
 import sys
 
 from desktop.cli._errors import CommandError
+from desktop.cli._lag_options import add_lag_arguments, parse_lag, sample_times
 from desktop.cli._log_options import add_log_arguments, log_format
 from shared.codes import MAX_PREDICTED_NT
 
@@ -41,6 +46,7 @@ def add_arguments(p):
                    help="write the calibration even when its predicted error exceeds --max-predicted (a warning); "
                         "never when the samples cover too little or lie on no ellipsoid")
     add_log_arguments(p)
+    add_lag_arguments(p)
 
 
 def _load_prior(path):
@@ -61,7 +67,7 @@ def _load_prior(path):
 def run(args):
     from desktop.cli._show import predicted_text
     from desktop.formats.calibration import save_calibration
-    from desktop.formats.readings import read_raw
+    from desktop.formats.readings import read_log
     from desktop.methods import fit_array
     from desktop.methods.refusal import predicted_error, problem
     from shared.fit import FitError
@@ -75,7 +81,10 @@ def run(args):
     if not args.max_predicted > 0:
         raise CommandError("--max-predicted must be a positive number of nT")
     prior = _load_prior(args.prior) if args.prior is not None else None
-    h = read_raw(args.raw, log_format(args))
+    h, t = read_log(args.raw, log_format(args))
+    lag = _undo_lag(args, h, t) if args.lag is not None else None
+    if lag is not None:
+        h = lag["h"]
     try:
         # no limit in the core: the limits are checked below on the one predicted error, with their cause
         cal = fit_array(h, args.method, field=args.field, float32=args.float32, prior=prior, max_error=float("inf"))
@@ -85,12 +94,18 @@ def run(args):
         raise CommandError("calibration failed (%s): %s" % (args.method, exc))
     honest = predicted_error(cal, h, pinned=args.field is not None or prior is not None)
     d = cal.diagnostics
+    if lag is not None:
+        _add_tau_error(cal, h, honest, lag)
     predicted = honest["predicted_error"]
     refused = problem(cal, h, honest, args.max_predicted)
+    if refused and lag is not None and lag["message"]:
+        refused = (refused[0], refused[1] + "; " + lag["message"], refused[2])
     if refused and not refused[2]:
         raise CommandError("calibration failed (%s): %s" % refused[:2])
     if refused and not args.accept_anyway:
         raise CommandError("calibration refused (%s): %s" % refused[:2])
+    if lag is not None:
+        cal.response = lag["response"]
     cal.meta["method"] = args.method
     cal.meta["source"] = args.raw
     temp = _mean_die_temperature(args.raw)
@@ -106,9 +121,58 @@ def run(args):
         print("%s (%s), observability %.3f" % (predicted_text(predicted), _widening(honest), d["observability"]))
     else:
         print("no predicted error for the %s method: not checked against --max-predicted" % args.method)
+    if lag is not None:
+        print(_lag_text(lag))
+        if lag["message"] and not refused:
+            print("fluxcal: warning: %s" % lag["message"], file=sys.stderr)
     if refused:
         print("fluxcal: warning: %s: %s; written anyway (--accept-anyway)" % refused[:2], file=sys.stderr)
     return 0
+
+
+def _undo_lag(args, h, t):
+    """dict: h de-lagged, response (the record's), tau_cov (3, 3) s^2, message, raw h and t."""
+    import numpy as np
+
+    from desktop.methods.lag import delag, estimate_response
+    how = parse_lag(args.lag)
+    t = sample_times(args, args.raw, len(h), t)
+    if how == "auto":
+        est = estimate_response(h, t, field=args.field)
+        tau, sigma, cov, message = est["tau_s"], est["tau_sigma_s"], est["tau_cov_s2"], est["message"]
+    else:
+        tau, sigma, cov, message = np.full(3, how), np.zeros(3), np.zeros((3, 3)), ""
+    response = {"model": "first-order", "tau_s": [float(v) for v in tau],
+                "tau_sigma_s": [float(v) for v in sigma], "source": "estimated" if how == "auto" else "given"}
+    return {"h": delag(h, t, tau), "raw": h, "t": t, "response": response, "tau_cov": cov, "message": message}
+
+
+def _add_tau_error(cal, h, honest, lag):
+    """The predicted error of a de-lagged fit: the core's widened by the residuals' long-run
+    variance (desktop.methods.lag.long_run_ratio: the derivative's noise telescopes), the
+    systematic floor kept, and the taus' uncertainty in quadrature (lag.tau_error)."""
+    import math
+
+    from desktop.methods import magnitudes
+    from desktop.methods.lag import long_run_ratio, tau_error
+    if honest["predicted_error"] is None:
+        return
+    t = lag["t"]
+    batch = max(int(round(0.1 * (len(t) - 1) / (t[-1] - t[0]))), int(10 * honest["tau_int"]), 1)
+    ratio = long_run_ratio(magnitudes(cal, h) - cal.field, batch)
+    if ratio is not None and not cal.diagnostics.get("prior_error"):
+        honest["predicted_error"] = max(honest["predicted_error_white"] * ratio, honest["applied_floor"])
+    err = 0.0
+    if lag["tau_cov"].any():
+        err = tau_error(lag["raw"], t, lag["response"]["tau_s"], lag["tau_cov"], cal.field)
+    honest["predicted_error"] = math.hypot(honest["predicted_error"], err)
+    cal.diagnostics.update(predicted_error=honest["predicted_error"], tau_error=err)
+
+
+def _lag_text(lag):
+    r = lag["response"]
+    taus = ", ".join("%.3f +- %.3f" % (1e3 * a, 1e3 * s) for a, s in zip(r["tau_s"], r["tau_sigma_s"]))
+    return "lag undone (first order, %s): tau %s ms" % (r["source"], taus)
 
 
 def _widening(honest):

@@ -1,0 +1,120 @@
+"""De-lagging a slow sensor (desktop/methods/lag.py), the record's response
+(shared/response.py) and `fluxcal fit --lag` / `fluxcal correct` with it."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from desktop.cli import main
+from desktop.experiments.common import capture_nT
+from desktop.methods.lag import delag, estimate_response
+from desktop.sim.scenario import Scenario
+from shared.calibration import Calibration
+
+SPS = 1000
+# the ADS1292's sinc3 at 1000 SPS averages over three 1 ms boxcars (time variance 3 / 12 ms^2):
+# a turning vector's average shrinks as if lagged by sigma_t more, tau_eff = sqrt(tau^2 + sigma_t^2)
+SINC3_SIGMA_S = math.sqrt(3.0 / 12.0) / SPS
+
+
+def test_delag_undoes_a_first_order_lag_on_a_steady_spin():
+    # ideal, noise-free Mag648 spun at 1 rev/s: |y| is low by ~B (tau w)^2 / 2 (940 nT here);
+    # de-lagged, the mean is left with the sinc3's smear B (w sigma_t)^2 / 2 (0.24 nT) and
+    # the PTP with the codes' rounding amplified by tau / dt (a few hundredths of a nT)
+    h, cap = capture_nT(motion="spin", rot_rate=1.0, seconds=3.0, rate=SPS, ideal=True, noise=0.0, adc_noise=False,
+                        inclination_deg=0.0, sensor="mag648", field_nT=48000.0)
+    tau = 1.0 / (2 * math.pi * 5.0)
+    steady = (cap["t"] > 1.0) & (cap["t"] < cap["t"][-1] - 0.02)   # not the derivative's one-sided ends
+    raw = np.linalg.norm(h[steady], axis=1)
+    fixed = np.linalg.norm(delag(h, cap["t"], tau)[steady], axis=1)
+    assert 48000.0 - raw.mean() > 900.0
+    assert abs(fixed.mean() - 48000.0) < 1.0
+    assert np.ptp(fixed) < 0.5
+
+
+def _estimate(**kw):
+    sc = dict(sensor="mag648", rate=SPS, seconds=40.0, seed=5, rot_rate=0.5)
+    sc.update(kw)
+    h, cap = capture_nT(**sc)
+    return estimate_response(h, cap["t"]), Scenario(**sc).fluxgate().tau()
+
+
+def test_estimate_finds_each_axis_time_constant():
+    # axes' bandwidths within 3 %: their taus differ by up to 2 ms, and the estimate must
+    # see each to within its own 4 sigma (after the sinc3's share, SINC3_SIGMA_S)
+    est, tau = _estimate(bandwidth_spread=0.03)
+    truth = np.sqrt(tau ** 2 + SINC3_SIGMA_S ** 2)
+    assert np.ptp(truth) > 1e-3
+    assert np.all(np.abs(est["tau_s"] - truth) < 4 * est["tau_sigma_s"] + 1e-6)
+    assert np.all(est["tau_sigma_s"] < 0.01 * truth)
+    assert est["identified"] and est["model_ok"] and est["message"] == ""
+
+
+def test_a_two_pole_response_is_named_not_first_order():
+    est, _ = _estimate(poles=2)
+    assert not est["model_ok"]
+    assert "not first order" in est["message"]
+
+
+def test_a_lag_too_small_to_see_is_said_so():
+    # the Mag649's 0.16 ms (and the sinc3's 0.5 ms) shrink |B| by ~0.02 nT at 0.5 rev/s,
+    # below the 0.1 nT noise of a sample: no estimate can tell it from zero
+    est, _ = _estimate(sensor="mag649")
+    assert not est["identified"]
+    assert "turned too slowly" in est["message"]
+
+
+def _record(**extra):
+    d = {"matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "offset": [0, 0, 0], "field": 48000.0}
+    d.update(extra)
+    return d
+
+
+def test_record_carries_the_response_and_old_records_load():
+    old = Calibration.from_dict(_record())
+    assert old.response is None and "response" not in old.to_dict()
+    resp = {"model": "first-order", "tau_s": [0.03, 0.031, 0.032], "tau_sigma_s": [1e-5] * 3, "source": "estimated"}
+    cal = Calibration.from_dict(_record(response=resp))
+    again = Calibration.from_dict(json.loads(json.dumps(cal.to_dict())))
+    assert again.response == resp
+    assert again.scaled_input(0.01).response == resp
+    for bad, words in (({"model": "two-pole", "tau_s": [0.03] * 3}, "response.model"),
+                       ({"model": "first-order", "tau_s": [-0.01, 0, 0]}, "response.tau_s[0]"),
+                       ({"model": "first-order", "tau_s": [0.03] * 2}, "list of 3"),
+                       ({"model": "first-order"}, "no 'tau_s'")):
+        with pytest.raises(ValueError, match=words.replace("[", r"\[").replace("]", r"\]")):
+            Calibration.from_dict(_record(response=bad))
+
+
+def test_fit_with_lag_and_correct_through_the_cli(tmp_path, capsys):
+    fit_npz, cal_json, out = (str(tmp_path / n) for n in ("fit.npz", "cal.json", "out.csv"))
+    assert main(["simulate", "--sensor", "mag648", "--seed", "5", "--rate", str(SPS), "--rot-rate", "0.5",
+                 "--seconds", "40", "-o", fit_npz]) == 0
+    assert main(["fit", fit_npz, "-o", cal_json, "--lag", "auto"]) == 0
+    text = capsys.readouterr().out
+    assert "lag undone (first order, estimated)" in text
+    cal = json.load(open(cal_json))
+    assert cal["response"]["source"] == "estimated"
+    assert cal["diagnostics"]["tau_error"] > 0
+    assert main(["correct", cal_json, fit_npz, "-o", out]) == 0
+    # the same readings as a CSV without times: correct asks for the rate, then takes it
+    csv = str(tmp_path / "raw.csv")
+    h, _ = capture_nT(sensor="mag648", rate=SPS, seconds=2.0, seed=5)
+    np.savetxt(csv, h, delimiter=",", header="x,y,z", comments="")
+    capsys.readouterr()
+    assert main(["correct", cal_json, csv, "-o", out]) == 1
+    assert "--rate" in capsys.readouterr().err
+    assert main(["correct", cal_json, csv, "-o", out, "--rate", str(SPS)]) == 0
+    assert main(["fit", fit_npz, "-o", cal_json, "--lag", "fast"]) == 1
+    assert "--lag must be auto or a time constant" in capsys.readouterr().err
+
+
+def test_a_given_lag_is_written_as_given(tmp_path, capsys):
+    fit_npz, cal_json = str(tmp_path / "fit.npz"), str(tmp_path / "cal.json")
+    assert main(["simulate", "--sensor", "mag648", "--seed", "5", "--rate", str(SPS), "--rot-rate", "0.2",
+                 "--seconds", "20", "-o", fit_npz]) == 0
+    assert main(["fit", fit_npz, "-o", cal_json, "--lag", "0.0318", "--accept-anyway"]) == 0
+    resp = json.load(open(cal_json))["response"]
+    assert resp["source"] == "given" and resp["tau_s"] == [0.0318] * 3
