@@ -11,7 +11,8 @@ lie on no ellipsoid (not_ellipsoid) is never written. Each refusal names its cau
 
 --lag undoes a first-order sensor's lag before the fit (desktop.methods.lag): given, or
 estimated per axis (auto); then the predicted error holds the estimate's uncertainty too,
-and a response the estimate cannot identify, or that is not first order, says so.
+a response the estimate cannot identify is warned of, and one that is not first order is
+refused (response_not_first_order; --accept-anyway writes it with the warning).
 """
 
 import os
@@ -22,6 +23,7 @@ from desktop.cli._lag_options import add_lag_arguments, parse_lag, sample_times
 from desktop.cli._log_options import add_log_arguments, log_format
 from shared.codes import MAX_PREDICTED_NT
 
+RESPONSE_NOT_FIRST_ORDER = "response_not_first_order"   # --lag auto's model check (desktop.methods.lag)
 HELP = "fit a calibration to raw readings (a magnetometer log: CSV or text columns, any unit; or a capture .npz)"
 
 
@@ -100,6 +102,9 @@ def run(args):
     refused = problem(cal, h, honest, args.max_predicted)
     if refused and lag is not None and lag["message"]:
         refused = (refused[0], refused[1] + "; " + lag["message"], refused[2])
+    elif lag is not None and not lag["model_ok"]:
+        # the calibration may be fine, but correcting with this response leaves the turning's error
+        refused = (RESPONSE_NOT_FIRST_ORDER, lag["message"], True)
     if refused and not refused[2]:
         raise CommandError("calibration failed (%s): %s" % refused[:2])
     if refused and not args.accept_anyway:
@@ -140,11 +145,13 @@ def _undo_lag(args, h, t):
     if how == "auto":
         est = estimate_response(h, t, field=args.field)
         tau, sigma, cov, message = est["tau_s"], est["tau_sigma_s"], est["tau_cov_s2"], est["message"]
+        model_ok = est["model_ok"]
     else:
-        tau, sigma, cov, message = np.full(3, how), np.zeros(3), np.zeros((3, 3)), ""
+        tau, sigma, cov, message, model_ok = np.full(3, how), np.zeros(3), np.zeros((3, 3)), "", True
     response = {"model": "first-order", "tau_s": [float(v) for v in tau],
                 "tau_sigma_s": [float(v) for v in sigma], "source": "estimated" if how == "auto" else "given"}
-    return {"h": delag(h, t, tau), "raw": h, "t": t, "response": response, "tau_cov": cov, "message": message}
+    return {"h": delag(h, t, tau), "raw": h, "t": t, "response": response, "tau_cov": cov, "message": message,
+            "model_ok": model_ok}
 
 
 def _add_tau_error(cal, h, honest, lag):

@@ -58,7 +58,7 @@ def run_case(work, sim, lag, rev):
     tag = "%s_%s_%g" % ("_".join(sim).replace("-", "") or "mag648", lag, rev)
     fit_npz, spin_npz = os.path.join(work, "fit_%s.npz" % tag), os.path.join(work, "spin_%s.npz" % tag)
     cal_json, out_csv = os.path.join(work, "cal_%s.json" % tag), os.path.join(work, "out_%s.csv" % tag)
-    base = ["--sensor", "mag648"] + sim + ["--seed", SEED, "--rate", SPS, "--rot-rate", rev]
+    base = ([] if "--sensor" in sim else ["--sensor", "mag648"]) + sim + ["--seed", SEED, "--rate", SPS, "--rot-rate", rev]
     sim_fit = ["simulate"] + base + ["--seconds", 120, "-o", fit_npz]
     sim_spin = ["simulate"] + base + ["--seconds", 30, "--motion", "spin", "--motion-seed", 2, "-o", spin_npz]
     fit = ["fit", fit_npz, "-o", cal_json, "--accept-anyway"] + ([] if lag is None else ["--lag", lag])
@@ -69,13 +69,14 @@ def run_case(work, sim, lag, rev):
     code, out, err = cli(*fit)
     if code:
         return {"verdict": "failed: " + err.strip().replace("fluxcal: ", ""), "commands": (sim_fit, sim_spin, fit)}
+    warning = [line for line in err.splitlines() if "warning" in line]
     code, _, err = cli("correct", cal_json, spin_npz, "-o", out_csv)
     if code:
         raise RuntimeError(err)
     cal = load_calibration(cal_json)
-    warning = [line for line in err.splitlines() if "warning" in line]
     tau = cal.response["tau_s"] if cal.response else None
-    return {"verdict": "refused" if any("written anyway" in w for w in warning) else
+    refusal = next((w.split(":")[2].strip() for w in warning if "written anyway" in w), None)
+    return {"verdict": "refused (%s)" % refusal if refusal else
             ("accepted, warned" if warning else "accepted"),
             "warning": " ".join(warning).replace("fluxcal: warning: ", ""),
             "tau_ms": None if tau is None else 1e3 * float(np.mean(tau)),
