@@ -76,7 +76,7 @@ def test_calibrate_auto_then_pull_cal_agrees_with_a_numpy_fit(tmp_path):
         out = ok(fluxcal("calibrate", "--auto", "--verify", 2, "--port", hh.port))
         # the firmware sends a progress event per second of its own clock, the CLI prints a line
         # for each: seconds of rotation, not of this machine's wall clock
-        progress = [line for line in out.splitlines() if "(needs" in line and "predicted error" in line]
+        progress = [line for line in out.splitlines() if "(needs" in line and "predicted full-sphere error" in line and "nT)" in line]
         verified = [line for line in out.splitlines() if line.startswith("verification:")]
         assert "coverage" in out and "READY" in out                   # progress lines, piped
         assert "+X" in out and "-Z" in out and "# full (24 samples)" in out   # the coverage map, its legend

@@ -68,7 +68,7 @@ class Lines(_Guide):
 
 def progress_line(ev, cfg, sep="  "):
     pred = "--" if ev.get("pred_nt") is None else "%.3f" % ev["pred_nt"]
-    return "coverage %3.0f %% (needs %.0f %%)  samples %5d%spredicted error %s nT (needs <= %g)%s" % (
+    return "coverage %3.0f %% (needs %.0f %%)  samples %5d%spredicted full-sphere error %s nT (needs <= %g nT)%s" % (
         100 * (ev.get("coverage") or 0), 100 * cfg["min_coverage"], ev.get("n", 0), sep, pred,
         cfg["target_error_nt"], "  READY" if ev.get("ready") else "")
 
