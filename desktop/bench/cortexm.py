@@ -7,7 +7,8 @@ What: MicroPython's bare-metal port on ARM's MPS2-AN385 (Cortex-M3, software flo
 140 KB heap) in qemu-system-arm with -icount shift=0, where one instruction takes one
 nanosecond of the board's clock, so ticks_us() differences x 1000 count instructions
 (desktop/devicesim/qemu_board.py). Counted there, in the revision's own code compiled
-to .mpy and run from the board's ROM filesystem:
+to .mpy and run from the board's ROM filesystem, with the fit's native sums (fitsums.mpy for
+armv7m, desktop/firmware/natmod.py) as deploy installs them where built (--before: pure Python):
 - micropython-scripts/cortexm_core.py: EllipsoidFit.add() with and without the garbage
   collections it causes, the bytes it leaves, solve() (a 1300-sample distorted sphere);
 - micropython-scripts/cortexm_firmware.py: the firmware's App on a LoopBoard fed a
@@ -25,6 +26,7 @@ import argparse
 import importlib.util
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -34,6 +36,7 @@ from desktop.bench.device import DEFAULT, SWEEP, WIRE_US, frame_table
 from desktop.devicesim.qemu_board import QemuBoard
 from desktop.firmware.files import REPO, import_device
 from desktop.firmware.interpreters import interpreter, mpy_cross_exe
+from desktop.firmware.natmod import natmod_path
 
 SCRIPTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "micropython-scripts")
 SECONDS = 15
@@ -54,11 +57,15 @@ def _mpy(src, out):
         raise RuntimeError("mpy-cross %s: %s" % (src, r.stderr.strip()))
 
 
-def make_rom(tree, rom, configs):
-    """The board's ROM: tree's device/ and shared/ as a board's /lib of .mpy, the bench scripts,
-    and per configuration (rate, decim, window; None: tree's defaults) a flash folder holding
-    its config, with a frame file per rate."""
+def make_rom(tree, rom, configs, native=None):
+    """The board's ROM: tree's device/ and shared/ as a board's /lib of .mpy (with native, the
+    fit's native sums fitsums.mpy, as deploy adds them), the bench scripts, and per configuration
+    (rate, decim, window; None: tree's defaults) a flash folder holding its config, with a frame
+    file per rate."""
     lib = os.path.join(rom, "lib")
+    if native:
+        os.makedirs(lib, exist_ok=True)
+        shutil.copyfile(native, os.path.join(lib, "fitsums.mpy"))
     for sub, dest in (("device", lib), ("shared", os.path.join(lib, "shared"))):
         for name in sorted(os.listdir(os.path.join(tree, sub))):
             if name.endswith(".py") and name not in DEVICE_ONLY:
@@ -93,14 +100,15 @@ def default_rate(tree):
     return module.SCHEMA["rate"][0]
 
 
-def count(tree, sweep=()):
+def count(tree, sweep=(), native=None):
     """{"core": {...}, "firmware": {...}, "sweep": {cfg: {...}}} counted on fresh boards with
     tree's code: the units and loops at tree's default configuration, fed a hand rotation at
-    its data rate, and the loops alone at each configuration of `sweep`."""
+    its data rate, and the loops alone at each configuration of `sweep`. native: fitsums.mpy
+    for armv7m, or None (pure-Python sums)."""
     out = {"sweep": {}}
     with tempfile.TemporaryDirectory() as tmp:
         rom = os.path.join(tmp, "rom")
-        runs = make_rom(tree, rom, [None] + list(sweep))
+        runs = make_rom(tree, rom, [None] + list(sweep), native)
         calls = [("core", "import cortexm_core\ncortexm_core.main()")]
         for cfg, (frames, flash, rate) in zip([None] + list(sweep), runs):
             calls.append((cfg or "firmware", "import cortexm_firmware\ncortexm_firmware.main(%r, %r, %d, %d, unit_counts=%s)"
@@ -231,7 +239,7 @@ def main(argv=None):
         print("qemu-m3 is not built: make interpreters")
         return 1
     t0 = time.time()
-    now = count(REPO, SWEEP)
+    now = count(REPO, SWEEP, natmod_path("armv7m"))     # as deploy puts it on an armv7m board
     before = None
     if args.before:
         with tempfile.TemporaryDirectory() as tmp:

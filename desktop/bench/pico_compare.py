@@ -12,6 +12,7 @@ import numpy as np
 from desktop.bench.cortexm import CYCLES_PER_M3_INSTRUCTION, count
 from desktop.bench.device import WIRE_US
 from desktop.firmware.files import REPO, import_device
+from desktop.firmware.natmod import natmod_path
 
 CLOCK_HZ = 125e6
 # the RP2040's exception numbers (16 + IRQ) the runner may name (pico/parts.mjs)
@@ -24,8 +25,9 @@ SOLVE_EVERY_S = import_device("config").SCHEMA["solve_every_s"][0]
 
 
 def m3_counts():
-    """cortexm.py's counts of this revision at the default configuration (no sweep)."""
-    return count(REPO)
+    """cortexm.py's counts of this revision at the default configuration (no sweep), with the
+    native sums as the Pico has them from deploy."""
+    return count(REPO, native=natmod_path("armv7m"))
 
 
 def m3_estimate(f, key, calls_per_s, stream):
