@@ -125,6 +125,8 @@ class App:
             feed()
             self.wait()
         self.output.close()
+        if self.quit:   # `repl`: the loop ended as asked (a deploy follows), not a crash or a hang
+            guard.finished()
         b.hand_back()   # `repl` (self.quit): main.py / code.py ends next, the REPL takes the line
 
     def step(self):

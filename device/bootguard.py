@@ -7,6 +7,7 @@ and a main loop that keeps failing stops applying the calibration (safe mode).
 
     guard = Guard(board, proto)   # app.py: begin() at boot, safe_mode its verdict
     guard.passed()                # a main-loop pass ran through
+    guard.finished()              # the loop handed the line to the REPL as asked (`repl`)
     guard.loop_error(e)           # an exception escaped a pass: counted, said, survived
     guard.leave()                 # the operator chose a calibration: safe mode has done its job
 
@@ -154,6 +155,12 @@ class Guard:
                 self._in_row, self.last_error[:120])
             flow.drop_calibration()
             self.proto.event("safe_mode", {"reason": self.safe_mode})
+
+    def finished(self):
+        """The main loop handed the line to the REPL as asked (`repl`, a deploy): this boot ended
+        well, however short, so a few quick redeploys never add up to safe mode."""
+        self._healthy = True
+        healthy(self.board.root)
 
     def leave(self):
         """The operator chose a calibration (set-cal, clear-cal, a new one): safe mode has done its job."""

@@ -43,6 +43,9 @@ def _lines(data):
     return out
 
 
+BOOT_TXT = os.path.join("%s", "flash", "boot.txt")   # the boot guard's count (bootguard.py)
+
+
 def _board(tmp_path, interpreter):
     need(interpreter)
     runtime = "circuitpython" if interpreter == "circuitpython" else "micropython"
@@ -57,11 +60,14 @@ def test_repl_returns_the_main_loop_and_turns_ctrl_c_back_on(interpreter, tmp_pa
     try:
         dev.run_until(0.3)
         assert any(d.get("ev") == "boot" for d in _lines(w.out)), w.lines()
+        assert os.path.exists(BOOT_TXT % tmp_path)         # a boot not yet healthy (bootguard.py)
         w.send(b"repl\n")
         dev.run_until(0.6)
         seen = _lines(w.out)
         assert {"v": 1, "ok": True, "cmd": "repl"} in seen, w.lines()
         assert {"main": "returned"} in seen, w.lines()   # App.run returned, main.py / code.py ended
+        # ended as asked (a deploy follows): not an unfinished boot, however short
+        assert not os.path.exists(BOOT_TXT % tmp_path)
         dev.proc.send_signal(signal.SIGINT)              # Ctrl-C
         assert dev.proc.wait(timeout=20) == 0
         rest = os.read(dev.proc.stdout.fileno(), 65536)

@@ -258,3 +258,22 @@ def test_the_simulated_boards_ms_clock_runs_through_the_links_us_wrap():
         link.t_us = (link.t_us + 100_000) & mask
         t = board.ticks_ms()
     assert board.ticks_diff(t, t0) == 10_000
+
+
+def test_a_watchdog_reset_counts_the_hung_boot_even_after_it_became_healthy(tmp_path):
+    """Row 'a main loop that hangs': a healthy boot clears boot.txt, so a loop that hangs later
+    would leave no trace; the watchdog's reset says it hung, and the guard counts that boot
+    (bootguard.begin). Two such boots in a row bring safe mode, as unfinished boots do. (The
+    reset itself, and a hang before the boot became healthy, run on the emulated Pico:
+    tests/test_pico_laptop.py.)"""
+    from desktop.firmware.files import import_device
+    bootguard = import_device("bootguard")
+    root = str(tmp_path)
+    assert bootguard.begin(root) == (0, None)
+    bootguard.healthy(root)                               # ran HEALTHY_MS: the count is cleared
+    assert bootguard.begin(root) == (0, None)             # a power-off leaves no trace: not counted
+    bootguard.healthy(root)
+    starts, crash = bootguard.begin(root, watchdog=True)  # the watchdog reset it: it hung
+    assert (starts, crash) == (1, None) and bootguard.safe_reason(starts, crash) is None
+    starts, crash = bootguard.begin(root, watchdog=True)  # hung again before it became healthy
+    assert starts == 2 and bootguard.safe_reason(starts, crash).startswith("2 boots in a row")
