@@ -63,6 +63,32 @@ static inline uint64_t mul32x16(uint32_t a, uint32_t b) {
 // adding the complement plus one (~m + 1 = -m), carried through the four words
 static inline void accumulate(uint32_t *acc, uint32_t m0, uint32_t m1, uint32_t m2, bool negate) {
     uint32_t flip = negate ? 0xffffffff : 0;
+    #if defined(__ARM_ARCH_6M__)
+    // Thumb-1 has add-with-carry, which C cannot ask for: one ADCS chain for the (complemented)
+    // magnitude, a second for the complement's +1
+    uint32_t a0 = acc[0], a1 = acc[1], a2 = acc[2], a3 = acc[3];
+    uint32_t w0 = m0 ^ flip, w1 = m1 ^ flip, w2 = m2 ^ flip;
+    __asm__ (".syntax unified\n\t"      // gcc's Thumb-1 default is the older, divided syntax
+             "adds %[a0], %[a0], %[w0]\n\t"
+             "adcs %[a1], %[w1]\n\t"
+             "adcs %[a2], %[w2]\n\t"
+             "adcs %[a3], %[flip]\n\t"
+             "movs %[w0], #1\n\t"
+             "ands %[w0], %[flip]\n\t"
+             "movs %[w1], #0\n\t"
+             "adds %[a0], %[a0], %[w0]\n\t"
+             "adcs %[a1], %[w1]\n\t"
+             "adcs %[a2], %[w1]\n\t"
+             "adcs %[a3], %[w1]\n\t"
+             ".syntax divided"
+             : [a0] "+l"(a0), [a1] "+l"(a1), [a2] "+l"(a2), [a3] "+l"(a3), [w0] "+l"(w0), [w1] "+l"(w1)
+             : [w2] "l"(w2), [flip] "l"(flip)
+             : "cc");
+    acc[0] = a0;
+    acc[1] = a1;
+    acc[2] = a2;
+    acc[3] = a3;
+    #else
     uint64_t c = (uint64_t)acc[0] + (m0 ^ flip) + (negate ? 1 : 0);
     acc[0] = (uint32_t)c;
     c = (c >> 32) + acc[1] + (m1 ^ flip);
@@ -70,6 +96,7 @@ static inline void accumulate(uint32_t *acc, uint32_t m0, uint32_t m1, uint32_t 
     c = (c >> 32) + acc[2] + (m2 ^ flip);
     acc[2] = (uint32_t)c;
     acc[3] += (uint32_t)(c >> 32) + flip;
+    #endif
 }
 
 // a small int with |v| < LIMIT: its magnitude and sign; false for anything else
