@@ -1,5 +1,5 @@
 """docs/reliability.md and the suite cannot drift apart: every test the matrix names exists,
-every row has a status, and the tally line counts them."""
+every row has a status, and the tally line (and the README's row) counts them."""
 
 import ast
 import os
@@ -38,3 +38,7 @@ def test_the_tally_counts_the_rows():
     n = {s: sum(1 for st, _ in found if st == s) for s in ("held", "fixed", "open")}
     want = "Tally: %d held, %d fixed, %d open." % (n["held"], n["fixed"], n["open"])
     assert want in open(DOC).read(), want
+    # the README's results row quotes the same tally
+    readme = open(os.path.join(ROOT, "README.md")).read()
+    quoted = "**%d held, %d fixed, %d open**" % (n["held"], n["fixed"], n["open"])
+    assert quoted in readme, "README.md's fault-matrix row should read %s" % quoted
