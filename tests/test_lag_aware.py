@@ -140,3 +140,27 @@ def test_experiment_reaches_the_mag648_target_at_half_a_rev_per_second(tmp_path)
     assert cells[3] == "accepted"
     assert float(cells[5]) <= 1.0
     assert abs(float(cells[4]) - 31.83) < 0.05          # tau (ms) of 5 Hz, the sinc3's 0.004 ms within
+
+
+def _residual_rms(text):
+    return float(text.split("residual rms ")[1].split(" nT")[0])
+
+
+def test_report_undoes_the_lag_the_calibration_carries(tmp_path, capsys):
+    # Mag648 turned at 0.5 rev/s: its lag reads |B| low by up to B (tau w)^2 / 2, hundreds of
+    # nT at the hand's fastest; de-lagged, the residual is the noise amplified by the
+    # derivative (a few nT). The same calibration without its response must read far worse.
+    fit_npz, cal_json, bare_json = (str(tmp_path / n) for n in ("fit.npz", "cal.json", "bare.json"))
+    assert main(["simulate", "--sensor", "mag648", "--seed", "5", "--rate", str(SPS), "--rot-rate", "0.5",
+                 "--seconds", "20", "-o", fit_npz]) == 0
+    assert main(["fit", fit_npz, "-o", cal_json, "--lag", "0.0318", "--accept-anyway"]) == 0
+    record = json.load(open(cal_json))
+    del record["response"]
+    json.dump(record, open(bare_json, "w"))
+    capsys.readouterr()
+    assert main(["report", fit_npz, "--cal", cal_json, "-o", str(tmp_path / "r1")]) == 0
+    delagged = _residual_rms(capsys.readouterr().out)
+    assert "lag undone (tau 31.800" in (tmp_path / "r1" / "summary.md").read_text()
+    assert main(["report", fit_npz, "--cal", bare_json, "-o", str(tmp_path / "r2")]) == 0
+    lagging = _residual_rms(capsys.readouterr().out)
+    assert delagged < 5.0 and lagging > 10 * delagged

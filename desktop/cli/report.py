@@ -9,12 +9,15 @@ their ellipsoid beside the corrected ones on their sphere, |B| before and
 after over time, and the histogram of the residuals |h_c| - field. Without
 --cal the capture is fitted here first (--method, the device's own streaming
 fit by default) as `fluxcal fit` fits it, with the same predicted error
-(desktop.methods.refusal).
+(desktop.methods.refusal). A calibration that carries a response (fluxcal fit --lag) has
+the readings' lag undone first, as `fluxcal correct` does: the corrected |B| is the
+de-lagged one (the times: the capture's, the log's time column, or --rate).
 """
 
 import os
 
 from desktop.cli._errors import CommandError
+from desktop.cli._lag_options import add_lag_arguments, sample_times
 from desktop.cli._log_options import add_log_arguments, log_format
 
 HELP = ("a verdict, PNG plots and a markdown summary of a capture: coverage and error on the sphere, residual"
@@ -32,6 +35,7 @@ def add_arguments(p):
     p.add_argument("--method", choices=METHODS, default="streaming", help="the fit without --cal")
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder for summary.md and the PNGs")
     add_log_arguments(p, time=True)
+    add_lag_arguments(p, lag=False)
 
 
 def run(args):
@@ -41,15 +45,21 @@ def run(args):
     from desktop.formats.readings import read_log
     from desktop.views.verdict import coverage_counts, verdict
     from desktop.methods import correct_array
+    from desktop.methods.lag import delag
 
     h, t_log = read_log(args.capture, log_format(args))
     capture = _capture_arrays(args.capture)
     cal, source = _calibration(args, h, capture)
+    if cal.response is not None:     # the raw figures keep the readings as read; |B| is de-lagged
+        h_in = delag(h, sample_times(args, args.capture, len(h), t_log), cal.response["tau_s"])
+        source += ", lag undone (tau %s ms)" % ", ".join("%.3f" % (1e3 * v) for v in cal.response["tau_s"])
+    else:
+        h_in = h
     try:
         os.makedirs(args.output, exist_ok=True)
     except OSError as exc:
         raise CommandError("%s: %s" % (args.output, exc.strerror or exc))
-    corrected = correct_array(cal, h)
+    corrected = correct_array(cal, h_in)
     if capture is not None and len(capture.get("t", ())) == len(h):
         t = capture["t"]
     else:    # a log's time column, or (None) the figures number the samples
