@@ -9,7 +9,7 @@ import pytest
 
 from desktop.cli import main
 from desktop.experiments.common import capture_nT
-from desktop.methods.lag import delag, estimate_response
+from desktop.methods.lag import PRIOR_SHARE, delag, estimate_response
 from desktop.sim.scenario import Scenario
 from shared.calibration import Calibration
 
@@ -34,11 +34,11 @@ def test_delag_undoes_a_first_order_lag_on_a_steady_spin():
     assert np.ptp(fixed) < 0.5
 
 
-def _estimate(**kw):
+def _estimate(prior=None, **kw):
     sc = dict(sensor="mag648", rate=SPS, seconds=40.0, seed=5, rot_rate=0.5)
     sc.update(kw)
     h, cap = capture_nT(**sc)
-    return estimate_response(h, cap["t"]), Scenario(**sc).fluxgate().tau()
+    return estimate_response(h, cap["t"], prior=prior), Scenario(**sc).fluxgate().tau()
 
 
 def test_estimate_finds_each_axis_time_constant():
@@ -59,11 +59,33 @@ def test_a_two_pole_response_is_named_not_first_order():
 
 
 def test_a_lag_too_small_to_see_is_said_so():
-    # the Mag649's 0.16 ms (and the sinc3's 0.5 ms) shrink |B| by ~0.02 nT at 0.5 rev/s,
-    # below the 0.1 nT noise of a sample: no estimate can tell it from zero
-    est, _ = _estimate(sensor="mag649")
+    # the Mag649's 0.16 ms and the sinc3's 0.5 ms shrink |B| by B (tau w)^2 / 2 ~ 3e-4 nT at
+    # 0.1 rev/s, far below the 0.1 nT noise of a sample: no estimate can tell it from zero
+    est, _ = _estimate(sensor="mag649", rot_rate=0.1)
     assert not est["identified"]
     assert "turned too slowly" in est["message"]
+    # a configured tau then stands, with its own uncertainty
+    est, _ = _estimate(sensor="mag649", rot_rate=0.1, prior=2e-4)
+    assert not est["identified"] and "the configured 0.200 ms kept" in est["message"]
+    assert np.allclose(est["tau_s"], 2e-4) and np.allclose(est["tau_sigma_s"], 2e-4 * PRIOR_SHARE)
+
+
+def test_the_sinc3_lag_is_seen_on_the_mag649_turned_fast():
+    # at 1 rev/s the ADC's own averaging (sinc3: tau_eff = sqrt(tau^2 + sigma_t^2) = 0.52 ms)
+    # shrinks |B| by ~0.2 nT at the hand's fastest, over 120,000 samples of 0.1 nT noise
+    est, tau = _estimate(sensor="mag649", rot_rate=1.0)
+    truth = np.sqrt(tau ** 2 + SINC3_SIGMA_S ** 2)
+    assert est["identified"]
+    assert np.all(np.abs(est["tau_s"] - truth) < 4 * est["tau_sigma_s"])
+
+
+def test_a_configured_tau_20_percent_off_is_refined_by_the_data():
+    # the Mag648's 5 Hz configured as 4 Hz: the data see the lag to 0.01 % and decide
+    est, tau = _estimate(prior=1.25 * 1.0 / (2 * math.pi * 5.0))
+    truth = np.sqrt(tau ** 2 + SINC3_SIGMA_S ** 2)
+    assert est["identified"] and est["message"] == ""
+    assert np.all(np.abs(est["tau_s"] - truth) < 4 * est["tau_sigma_s"] + 1e-6)
+    assert np.all(est["tau_sigma_s"] < 1e-3 * truth)
 
 
 def _record(**extra):
@@ -164,3 +186,21 @@ def test_report_undoes_the_lag_the_calibration_carries(tmp_path, capsys):
     assert main(["report", fit_npz, "--cal", bare_json, "-o", str(tmp_path / "r2")]) == 0
     lagging = _residual_rms(capsys.readouterr().out)
     assert delagged < 5.0 and lagging > 10 * delagged
+
+
+def test_fit_names_a_response_it_cannot_identify_and_takes_a_configured_one(tmp_path, capsys):
+    fit_npz, cal_json = str(tmp_path / "fit.npz"), str(tmp_path / "cal.json")
+    assert main(["simulate", "--sensor", "mag649", "--seed", "5", "--rate", str(SPS), "--rot-rate", "0.1",
+                 "--seconds", "20", "-o", fit_npz]) == 0
+    capsys.readouterr()
+    assert main(["fit", fit_npz, "-o", cal_json, "--lag", "auto"]) == 0
+    assert "warning: response_not_identified: the lag was not seen" in capsys.readouterr().err
+    # 20 s at 0.1 rev/s covers little of the sphere: the prior's 50 % may cost more than 5 nT
+    assert main(["fit", fit_npz, "-o", cal_json, "--lag", "auto", "--lag-prior", "0.0005", "--accept-anyway"]) == 0
+    assert "the configured 0.500 ms kept" in capsys.readouterr().err
+    resp = json.load(open(cal_json))["response"]
+    assert resp["tau_s"] == [0.0005] * 3 and resp["prior_s"] == 0.0005
+    assert main(["fit", fit_npz, "-o", cal_json, "--lag", "0.0005", "--lag-prior", "0.0005"]) == 1
+    assert "give it with --lag auto" in capsys.readouterr().err
+    assert main(["fit", fit_npz, "-o", cal_json, "--lag", "auto", "--lag-prior", "auto"]) == 1
+    assert "--lag-prior must be a time constant" in capsys.readouterr().err

@@ -1,6 +1,6 @@
 """The options that undo a slow sensor's lag (fit, correct). Not a command.
 
-    add_lag_arguments(parser, lag=True)      # [--lag TAU_S|auto] --rate SPS
+    add_lag_arguments(parser, lag=True)      # [--lag TAU_S|auto [--lag-prior TAU_S]] --rate SPS
     t = sample_times(args, path, h, t)      # (N,) s, or CommandError naming what is missing
 """
 
@@ -14,13 +14,16 @@ def add_lag_arguments(p, lag=True):
                        help="undo a first-order sensor's lag before the fit: its time constant in s "
                             "(1 / (2 pi bandwidth): 0.0318 for 5 Hz), or auto to estimate one per axis from "
                             "the readings; the calibration carries it and `fluxcal correct` applies it")
+        g.add_argument("--lag-prior", metavar="TAU_S", default=None,
+                       help="with --lag auto: the configured time constant (s, e.g. the datasheet's bandwidth), "
+                            "which seeds the estimate and stands, +-50 %%, where the data do not show the lag")
     g.add_argument("--rate", type=float, metavar="SPS", default=None,
                    help="the log's sample rate, when it has no time column (a capture .npz has its own)")
 
 
-def parse_lag(text):
-    """'auto' or a time constant in s (0..1); CommandError otherwise."""
-    if text == "auto":
+def parse_lag(text, option="--lag", auto=True):
+    """'auto' (when auto) or a time constant in s (0..1); CommandError otherwise."""
+    if auto and text == "auto":
         return "auto"
     try:
         tau = float(text)
@@ -28,7 +31,8 @@ def parse_lag(text):
         tau = float("nan")
     from shared.response import TAU_LIMIT_S
     if not 0.0 <= tau <= TAU_LIMIT_S:
-        raise CommandError("--lag must be auto or a time constant in s, 0..%g (1 / (2 pi bandwidth))" % TAU_LIMIT_S)
+        raise CommandError("%s must be %sa time constant in s, 0..%g (1 / (2 pi bandwidth))"
+                           % (option, "auto or " if auto else "", TAU_LIMIT_S))
     return tau
 
 

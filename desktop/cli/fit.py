@@ -1,4 +1,5 @@
-"""fluxcal fit RAW -o CAL.json [--prior OLD.json] [--max-predicted NT | --accept-anyway] [--lag TAU_S|auto]
+"""fluxcal fit RAW -o CAL.json [--prior OLD.json] [--max-predicted NT | --accept-anyway]
+    [--lag TAU_S|auto [--lag-prior TAU_S]]
 
 The written calibration's predicted full-sphere error is desktop.methods.refusal's
 predicted_error, the one `fluxcal report` gives too (the core's white-noise value
@@ -10,8 +11,10 @@ lie on no ellipsoid (not_ellipsoid) is never written. Each refusal names its cau
 (refusal.cause).
 
 --lag undoes a first-order sensor's lag before the fit (desktop.methods.lag): given, or
-estimated per axis (auto); then the predicted error holds the estimate's uncertainty too,
-a response the estimate cannot identify is warned of, and one that is not first order is
+estimated per axis (auto), from a configured time constant when one is given
+(--lag-prior: it seeds the estimate and stands where the data do not show the lag); then
+the predicted error holds the estimate's uncertainty too, a response the data cannot
+identify is warned of (response_not_identified), and one that is not first order is
 refused (response_not_first_order; --accept-anyway writes it with the warning).
 """
 
@@ -24,6 +27,7 @@ from desktop.cli._log_options import add_log_arguments, log_format
 from shared.codes import MAX_PREDICTED_NT
 
 RESPONSE_NOT_FIRST_ORDER = "response_not_first_order"   # --lag auto's model check (desktop.methods.lag)
+RESPONSE_NOT_IDENTIFIED = "response_not_identified"     # --lag auto: the lag not seen in the data
 HELP = "fit a calibration to raw readings (a magnetometer log: CSV or text columns, any unit; or a capture .npz)"
 
 
@@ -102,6 +106,10 @@ def run(args):
     refused = problem(cal, h, honest, args.max_predicted)
     if refused and lag is not None and lag["message"]:
         refused = (refused[0], refused[1] + "; " + lag["message"], refused[2])
+    elif refused and lag is not None and lag["response"]["source"] == "given":
+        # a tau off by a few % leaves errors that follow the motion: say what estimates it
+        refused = (refused[0], refused[1] + "; or the given tau is not the sensor's: estimate it from the "
+                   "readings (--lag auto --lag-prior %s)" % args.lag, refused[2])
     elif lag is not None and not lag["model_ok"]:
         # the calibration may be fine, but correcting with this response leaves the turning's error
         refused = (RESPONSE_NOT_FIRST_ORDER, lag["message"], True)
@@ -129,7 +137,7 @@ def run(args):
     if lag is not None:
         print(_lag_text(lag))
         if lag["message"] and not refused:
-            print("fluxcal: warning: %s" % lag["message"], file=sys.stderr)
+            print("fluxcal: warning: %s: %s" % (RESPONSE_NOT_IDENTIFIED, lag["message"]), file=sys.stderr)
     if refused:
         print("fluxcal: warning: %s: %s; written anyway (--accept-anyway)" % refused[:2], file=sys.stderr)
     return 0
@@ -141,15 +149,20 @@ def _undo_lag(args, h, t):
 
     from desktop.methods.lag import delag, estimate_response
     how = parse_lag(args.lag)
+    prior = None if args.lag_prior is None else parse_lag(args.lag_prior, "--lag-prior", auto=False)
+    if prior is not None and how != "auto":
+        raise CommandError("--lag-prior seeds an estimate: give it with --lag auto")
     t = sample_times(args, args.raw, len(h), t)
     if how == "auto":
-        est = estimate_response(h, t, field=args.field)
+        est = estimate_response(h, t, field=args.field, prior=prior)
         tau, sigma, cov, message = est["tau_s"], est["tau_sigma_s"], est["tau_cov_s2"], est["message"]
         model_ok = est["model_ok"]
     else:
         tau, sigma, cov, message, model_ok = np.full(3, how), np.zeros(3), np.zeros((3, 3)), "", True
     response = {"model": "first-order", "tau_s": [float(v) for v in tau],
                 "tau_sigma_s": [float(v) for v in sigma], "source": "estimated" if how == "auto" else "given"}
+    if prior is not None:
+        response["prior_s"] = prior
     return {"h": delag(h, t, tau), "raw": h, "t": t, "response": response, "tau_cov": cov, "message": message,
             "model_ok": model_ok}
 
@@ -178,7 +191,7 @@ def _add_tau_error(cal, h, honest, lag):
 
 def _lag_text(lag):
     r = lag["response"]
-    taus = ", ".join("%.3f +- %.3f" % (1e3 * a, 1e3 * s) for a, s in zip(r["tau_s"], r["tau_sigma_s"]))
+    taus = ", ".join("%.3f +- %.2g" % (1e3 * a, 1e3 * s) for a, s in zip(r["tau_s"], r["tau_sigma_s"]))
     return "lag undone (first order, %s): tau %s ms" % (r["source"], taus)
 
 

@@ -27,10 +27,12 @@ RATES_REV_S = (0.1, 0.5, 1.0)
 SPS = 1000
 SEED = 5
 TAU_648 = 1.0 / (2.0 * np.pi * 5.0)
-# (label, simulate options, fit's --lag values (None: no de-lagging), rates)
+# (label, simulate options, fit's --lag values (None: no de-lagging; words after the value are
+# further options), rates)
 CASES = (
     ("Mag648", [], [None, "auto"], RATES_REV_S),
-    ("Mag648, bandwidth given 20 % low (4 Hz)", [], ["%.5f" % (TAU_648 * 1.25)], (0.5, 1.0)),
+    ("Mag648, bandwidth configured 20 % low (4 Hz)", [],
+     ["%.5f" % (TAU_648 * 1.25), "auto --lag-prior %.5f" % (TAU_648 * 1.25)], (0.5, 1.0)),
     ("Mag648, axes' bandwidths within 3 %", ["--bandwidth-spread", "0.03"], [None, "auto"], (0.5, 1.0)),
     ("Mag648 with two poles (same -3 dB)", ["--poles", "2"], [None, "auto"], (0.5, 1.0)),
     ("Mag649", ["--sensor", "mag649"], [None, "auto"], (0.5, 1.0)),
@@ -55,13 +57,13 @@ def run_case(work, sim, lag, rev):
     """One row's figures: dict of verdict, tau_ms, ptp, predicted, real, commands."""
     from desktop.formats.calibration import load_calibration
     from desktop.formats.capture import load_capture
-    tag = "%s_%s_%g" % ("_".join(sim).replace("-", "") or "mag648", lag, rev)
+    tag = "%s_%s_%g" % ("_".join(sim).replace("-", "") or "mag648", str(lag).replace(" --", "_").replace(" ", "_"), rev)
     fit_npz, spin_npz = os.path.join(work, "fit_%s.npz" % tag), os.path.join(work, "spin_%s.npz" % tag)
     cal_json, out_csv = os.path.join(work, "cal_%s.json" % tag), os.path.join(work, "out_%s.csv" % tag)
     base = ([] if "--sensor" in sim else ["--sensor", "mag648"]) + sim + ["--seed", SEED, "--rate", SPS, "--rot-rate", rev]
     sim_fit = ["simulate"] + base + ["--seconds", 120, "-o", fit_npz]
     sim_spin = ["simulate"] + base + ["--seconds", 30, "--motion", "spin", "--motion-seed", 2, "-o", spin_npz]
-    fit = ["fit", fit_npz, "-o", cal_json, "--accept-anyway"] + ([] if lag is None else ["--lag", lag])
+    fit = ["fit", fit_npz, "-o", cal_json, "--accept-anyway"] + ([] if lag is None else ["--lag"] + lag.split())
     for argv in (sim_fit, sim_spin):
         code, _, err = cli(*argv)
         if code:
