@@ -21,17 +21,34 @@ A session ends early with reason "fault" (health.py) or "internal_error" (bootgu
 """
 
 import gc
+import sys
 
 import led as ledp
 import store
 from button import LONG, SHORT
 from protocol import ProtocolError, json_number
-from session import AUTO, FULL, KINDS, QUICK, Session
 from shared import codes
 from shared.calibration import Calibration
-from shared.fit import SUMS_PATH
+from shared.codes import AUTO, FULL, QUICK
 
 SOLVE = "solve"   # board.busy key: a solve, charged as simulated time by the simulated board
+KINDS = (AUTO, FULL, QUICK)   # start-cal's (the session's states and kinds: shared/codes.py)
+# A session's modules (session.py, the gates, the fit and its solver: ~44 KB of bytecode on a
+# 32-bit board running .mpy from RAM) are imported when a session starts and dropped once it
+# ends, so that idle and survey run without them (docs/firmware.md, the heap). Not on CPython:
+# there the simulated device shares sys.modules with the desktop's own imports of shared/.
+_UNLOAD = sys.implementation.name != "cpython"
+
+
+def sums_path():
+    """Which sums the fit runs, "native" (fitsums.mpy) or "python", as shared/fit.py decides, without
+    importing the fit: a board's `status` at boot, before any session brought it."""
+    try:
+        import fitsums  # noqa: F401 - shared/fit.py's test: it imports where arch and .mpy version fit
+    except (ImportError, ValueError):
+        return "python"
+    del sys.modules["fitsums"]
+    return "native"
 
 
 class CalibrationFlow:
@@ -53,6 +70,8 @@ class CalibrationFlow:
         self.cal_source = None
         self.cal_problem = None
         self._diff = board.ticks_diff
+        self._resident = None     # sys.modules before the session in progress imported its own
+        self._sums_path = sums_path()
 
     def load(self):
         body, src, problem = store.load(self.board.root, "cal", Calibration.from_dict)
@@ -118,7 +137,12 @@ class CalibrationFlow:
         period_ms = 1000.0 * c["decim"] / c["rate"]
         # the previous calibration as it stands now (its temperature coefficients applied)
         prior = None if kind == FULL else self.output.cal_now
-        gc.collect()   # the session's buffers want a few contiguous KB of a small heap
+        if self._resident is None:
+            self._resident = set(sys.modules)
+        gc.collect()   # the session's modules and buffers want a few contiguous KB of a small heap
+        from session import Session
+        from shared.fit import SUMS_PATH
+        self._sums_path = SUMS_PATH
         self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind, hold)
         self.output.session = self.session
         self.last_progress = self.board.ticks_ms()
@@ -128,6 +152,12 @@ class CalibrationFlow:
     def finish(self):
         s = self._end()
         gc.collect()
+        try:
+            return self._finish(s)
+        finally:
+            self._unload()
+
+    def _finish(self, s):
         cal, reason, msg = s.finish()
         b = self.board
         b.busy(SOLVE)
@@ -182,6 +212,7 @@ class CalibrationFlow:
 
     def cancel(self):
         s = self._end()
+        self._unload()
         s.cancel()
         self.last_result = {"state": s.state, "reason": s.reason, "msg": s.message}
         self.proto.event("cal", self.last_result)
@@ -194,6 +225,7 @@ class CalibrationFlow:
         if self.session is None:
             return
         s = self._end()
+        self._unload()
         s.cancel()
         s.reason = reason
         s.message = msg
@@ -210,6 +242,22 @@ class CalibrationFlow:
         self.output.session = None
         self.last_coverage = s.cov
         return s
+
+    def _unload(self):
+        """Drop the modules the session brought (start) from sys.modules, and from their package:
+        their bytecode is freed once the session's objects go; the next session imports them again.
+        A module imported since by another path (tempco at the finish, acceptance for set-cal) goes too."""
+        resident, self._resident = self._resident, None
+        if not _UNLOAD or resident is None:
+            return
+        for name in [m for m in sys.modules if m not in resident]:
+            del sys.modules[name]
+            dot = name.rfind(".")
+            if dot > 0 and name[:dot] in sys.modules:
+                try:
+                    delattr(sys.modules[name[:dot]], name[dot + 1:])
+                except AttributeError:
+                    pass
 
     def steady_led(self):
         if self.supervisor.fault:
@@ -265,7 +313,7 @@ class CalibrationFlow:
             "cal_kind": cal.meta.get("kind", FULL) if cal is not None else None,
             "tempco_range": cal.tempco["range_c"] if cal is not None and cal.tempco else None,
             "last_cal": self.last_result,
-            "sums": SUMS_PATH,    # the fit's sums: "native" (fitsums.mpy) or "python"
+            "sums": self._sums_path,    # the fit's sums: "native" (fitsums.mpy) or "python"
         }
         if self.session is not None:
             out["cal"] = self.session.progress()

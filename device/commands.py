@@ -14,7 +14,6 @@ import json
 import sys
 
 import config as cfgmod
-from acceptance import check_calibration
 from protocol import VERSION, ProtocolError, json_number
 from shared import codes
 from shared.calibration import Calibration
@@ -65,6 +64,7 @@ def set_cal(app, args):
     except ValueError:
         raise ProtocolError(codes.BAD_JSON, "set-cal argument is not valid JSON")
     cal = Calibration.from_dict(d)  # ValueError names the problem
+    from acceptance import check_calibration   # here: the session's, not held while idle (calibration_flow.py)
     problem = check_calibration(cal, app.cfg, app.flow.scale)
     if problem:
         raise ProtocolError(problem[0], problem[1])

@@ -29,8 +29,6 @@ from shared.codes import AUTO, CANCELLED, COLLECTING, DONE, FAILED, FULL, QUICK,
 from shared.coverage import Coverage
 from shared.fit import EllipsoidFit, FitError
 
-KINDS = (AUTO, FULL, QUICK)   # start-cal's (the session's states and kinds: shared/codes.py)
-
 _MIN_PROVISIONAL = 60
 # Gauss-Newton steps of a provisional solve. It only sets the disturbance gate and
 # says when coverage is enough; from the algebraic fit one step lands within 5e-5 nT
