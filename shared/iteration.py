@@ -30,10 +30,12 @@ def quantise(x):
 
 
 class State:
-    def __init__(self, pb, prior, a_int, f_int):
+    def __init__(self, pb, prior, a_int, f_int, near=None):
+        """near: a state nearby (the one a step starts from): the sums re-centred from its
+        sums, the same integers as from the problem's (Problem.sums_at)."""
         self.a_int = a_int
         self.f_int = f_int
-        self.s = pb.sums_at(f_int)
+        self.s = pb.sums_at(f_int, None if near is None else (near.s, near.f_int))
         self.ga, self.t, self.rss = pb.exact(self.s, a_int)
         self.a = [pb.value(x, -FRAC) for x in a_int]
         self.f = [pb.value(x, -FRAC) for x in f_int]
@@ -78,18 +80,21 @@ def system(pb, st, gradient_only=False):
         h = None
         g = pb.gradient(st.ga, st.t, sym(st.a))
     else:
-        h, g, _ = pb.normal_equations(st.s, st.a_int, st.ga, st.t)
+        h, g, _ = pb.normal_equations(st.s, st.a_int, st.ga, st.t, st.a)
     if st.rho:
-        num = pb.num
+        zero = pb.num(0.0)
         lam = pb.value(st.rss, -6 * FRAC) / (pb.nf * pb.nf)  # (RSS/N)/N
         for r, row in zip(st.rho, st.jac):
             for i in range(9):
-                if row[i] == num(0.0):
+                ri = row[i]
+                if ri == zero:
                     continue
-                g[i] = g[i] + lam * row[i] * r
+                lr = lam * ri      # the products as written lam * row[i] * row[k]: (lam row[i]) row[k]
+                g[i] = g[i] + lr * r
                 if h is not None:
+                    hi = h[i]
                     for k in range(9):
-                        h[i][k] = h[i][k] + lam * row[i] * row[k]
+                        hi[k] = hi[k] + lr * row[k]
     return h, g
 
 
@@ -146,7 +151,7 @@ def iterate(pb, pr, st, num, max_iter, basis=None):
             if not any(da) and not any(df):
                 break
             biggest = max(abs(float(x)) for x in step)
-            cand = State(pb, pr, [st.a_int[i] + da[i] for i in range(6)], [st.f_int[i] + df[i] for i in range(3)])
+            cand = State(pb, pr, [st.a_int[i] + da[i] for i in range(6)], [st.f_int[i] + df[i] for i in range(3)], st)
             # Near the fixed point the Gauss-Newton step is trusted even when
             # rounding hides the (tiny) decrease of the objective.
             if biggest < 1e-7 or not cand.worse_than(st, n):

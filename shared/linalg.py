@@ -96,7 +96,11 @@ def solve_spd(a, b, num):
         if not a[i][i] > num(0.0):
             raise ValueError("non-positive diagonal %d" % i)
         d.append(one / num(math.sqrt(float(a[i][i]))))
-    scaled = [[a[i][j] * d[i] * d[j] for j in range(n)] for i in range(n)]
+    scaled = []
+    for i in range(n):
+        row = a[i]
+        di = d[i]
+        scaled.append([row[j] * di * d[j] for j in range(n)])
     y = cho_solve(cholesky(scaled, num), [b[i] * d[i] for i in range(n)])
     return [y[i] * d[i] for i in range(n)]
 
@@ -112,44 +116,48 @@ def eigh3(s, num, sweeps=12):
     one = num(1.0)
     a = [[s[i][j] for j in range(3)] for i in range(3)]
     v = [[one if i == j else zero for j in range(3)] for i in range(3)]
+    big = num(1e6)
+    two = num(2.0)
     for _ in range(sweeps):
         off = abs(a[0][1]) + abs(a[0][2]) + abs(a[1][2])
         if off == zero:
             break
         for p, q in ((0, 1), (0, 2), (1, 2)):
-            apq = a[p][q]
+            ap = a[p]
+            aq = a[q]
+            apq = ap[q]
             if apq == zero:
                 continue
-            diff = a[q][q] - a[p][p]
-            if abs(diff) > num(1e6) * abs(apq):
+            diff = aq[q] - ap[p]
+            if abs(diff) > big * abs(apq):
                 # Tiny angle: tan = apq / diff; the general formula would
                 # overflow theta^2 in single precision.
                 t = apq / diff
             else:
                 # Stable tangent formula (Golub & Van Loan 8.5.2).
-                theta = diff / (num(2.0) * apq)
+                theta = diff / (two * apq)
                 t = one / (abs(theta) + num(math.sqrt(float(theta * theta + one))))
                 if theta < zero:
                     t = -t
             c = one / num(math.sqrt(float(t * t + one)))
             sn = t * c
+            for row in a:
+                akp = row[p]
+                akq = row[q]
+                row[p] = c * akp - sn * akq
+                row[q] = sn * akp + c * akq
             for k in range(3):
-                akp = a[k][p]
-                akq = a[k][q]
-                a[k][p] = c * akp - sn * akq
-                a[k][q] = sn * akp + c * akq
-            for k in range(3):
-                apk = a[p][k]
-                aqk = a[q][k]
-                a[p][k] = c * apk - sn * aqk
-                a[q][k] = sn * apk + c * aqk
-            a[p][q] = zero
-            a[q][p] = zero
-            for k in range(3):
-                vkp = v[k][p]
-                vkq = v[k][q]
-                v[k][p] = c * vkp - sn * vkq
-                v[k][q] = sn * vkp + c * vkq
+                apk = ap[k]
+                aqk = aq[k]
+                ap[k] = c * apk - sn * aqk
+                aq[k] = sn * apk + c * aqk
+            ap[q] = zero
+            aq[p] = zero
+            for row in v:
+                vkp = row[p]
+                vkq = row[q]
+                row[p] = c * vkp - sn * vkq
+                row[q] = sn * vkp + c * vkq
     values = [a[0][0], a[1][1], a[2][2]]
     vectors = [[v[0][k], v[1][k], v[2][k]] for k in range(3)]
     return values, vectors
@@ -170,7 +178,8 @@ def sym_function(values, vectors, f):
 
 
 def matvec(m, x):
-    return [m[i][0] * x[0] + m[i][1] * x[1] + m[i][2] * x[2] for i in range(3)]
+    x0, x1, x2 = x
+    return [row[0] * x0 + row[1] * x1 + row[2] * x2 for row in m]
 
 
 def det3(m):

@@ -26,53 +26,76 @@ COUNT = len(ORDER)  # 35
 BINOM = ((1,), (1, 1), (1, 2, 1), (1, 3, 3, 1), (1, 4, 6, 4, 1))
 
 
-def _axis_sources(axis):
-    """For each storage index n (exponents e), the storage indices of e with its `axis`
-    exponent set to 0, 1, ..., e[axis], five bytes per n (a bytes object: one heap block,
-    where a table of tuples would be hundreds of objects for every collection to mark)."""
-    out = bytearray(5 * COUNT)
-    for n, e in enumerate(ORDER):
-        for t in range(e[axis] + 1):
-            src = [e[0], e[1], e[2]]
-            src[axis] = t
-            out[5 * n + t] = INDEX[(src[0], src[1], src[2])]
+def _axis_chains(axis):
+    """The chains along `axis`: for each monomial m of the other two axes with degree below 4,
+    the storage indices of m x^0, m x^1, ..., m x^(4 - deg m), each chain prefixed by its
+    length, all in one bytes object (one heap block for a collection to mark, where a table
+    of tuples would be dozens)."""
+    out = bytearray()
+    for e in ORDER:
+        if e[axis] == 0 and e[0] + e[1] + e[2] < 4:
+            out.append(5 - (e[0] + e[1] + e[2]))
+            for t in range(5 - (e[0] + e[1] + e[2])):
+                src = [e[0], e[1], e[2]]
+                src[axis] = t
+                out.append(INDEX[(src[0], src[1], src[2])])
     return bytes(out)
 
 
-_SOURCES = [_axis_sources(_a) for _a in range(3)]
+_CHAINS = [_axis_chains(_a) for _a in range(3)]
+_DEGREE = bytes([_e[0] + _e[1] + _e[2] for _e in ORDER])
+
+
+def _taylor(s, chains, c):
+    """Re-centre one axis of the sums s (a list, in place) on c: along each chain the moments
+    M_t = sum m x^t become sum m (x - c)^t = sum_j C(t, j) (-c)^(t-j) M_j, by the Taylor
+    shift M_t -= c M_(t-1) for t from the top down to k, passes k = 1 .. d (the binomial
+    coefficients built up by the repeated passes): d(d+1)/2 products for a chain of degree d,
+    35 an axis, each with a small factor c where the centre moved little."""
+    p = 0
+    end = len(chains)
+    while p < end:
+        top = p + chains[p]          # the chain is chains[p + 1 .. top]
+        for k in range(p + 2, top + 1):
+            upper = chains[top]
+            below = s[upper]
+            for e in range(top - 1, k - 2, -1):
+                lower = chains[e]
+                value = s[lower]
+                s[upper] = below - c * value
+                upper = lower
+                below = value
+        p = top + 1
+
+
+def recentred(sums, centre):
+    """Power sums of (h - centre) from the power sums of h, exactly: a new list.
+
+    sums: list of COUNT ints (storage order); centre: 3 ints. One axis at a time, x then
+    y then z (_taylor): 105 big-integer products at most, fewer where the centre moves
+    along fewer axes (the solver calls this per trial state, from the nearest state's sums;
+    on a Cortex-M each big-integer operation is a heap allocation, docs/firmware.md).
+    """
+    s = list(sums)
+    for axis in range(3):
+        c = centre[axis]
+        if c:
+            _taylor(s, _CHAINS[axis], c)
+    return s
+
+
+def scaled(sums, scale):
+    """Power sums of scale * h from those of h: each sum times scale^degree, exactly."""
+    powers = [1, scale, scale * scale, scale * scale * scale, scale * scale * scale * scale]
+    return [sums[n] * powers[_DEGREE[n]] if _DEGREE[n] else sums[n] for n in range(COUNT)]
 
 
 def shifted(sums, scale, centre):
     """Power sums of (scale*h - centre) from the power sums of h, exactly.
 
     sums: list of COUNT ints (storage order); scale: int; centre: 3 ints.
-    (s*x - c)^i = sum_t C(i,t) s^t x^t (-c)^(i-t) shifts one axis at a time, x
-    then y then z: 210 products in all, their coefficients made once per axis
-    (the solver calls this per trial state; on a Cortex-M each big-integer
-    product is a heap allocation, docs/firmware.md).
     """
-    s = sums
-    for axis in range(3):
-        c = centre[axis]
-        if c == 0 and scale == 1:
-            continue
-        mc = [1]
-        sp = [1]
-        for _ in range(4):
-            mc.append(mc[-1] * -c)
-            sp.append(sp[-1] * scale)
-        coef = [[BINOM[e][t] * sp[t] * mc[e - t] for t in range(e + 1)] for e in range(5)]
-        src = _SOURCES[axis]
-        out = []
-        for n in range(COUNT):
-            row = coef[ORDER[n][axis]]
-            base = 5 * n
-            total = 0
-            for t in range(len(row)):
-                total += row[t] * s[src[base + t]]
-            out.append(total)
-        s = out
-    return list(s) if s is sums else s
+    return recentred(sums if scale == 1 else scaled(sums, scale), centre)
 
 
 # bits of 0..255: the last step of bit_length is a table look-up
@@ -82,16 +105,25 @@ _BITS = bytes([0] + [len(bin(i)) - 2 for i in range(1, 256)])
 def bit_length(x):
     """Number of bits of |x| (MicroPython ints have no int.bit_length).
 
-    64 bits at a time while x is big, then bytes, then a table: a handful of
-    operations instead of one shift per bit (the solver calls this for every
-    conversion of a big integer to a float)."""
+    Halving steps of 128, 64, ... 8 bits, then a table: a fixed handful of operations
+    (the solver calls this for every conversion of a big integer to a float, and the
+    interpreter's cost is its operations)."""
     if x < 0:
         x = -x
     n = 0
-    while x >= 0x10000000000000000:
+    while x >= 0x100000000000000000000000000000000:
+        x >>= 128
+        n += 128
+    if x >= 0x10000000000000000:
         x >>= 64
         n += 64
-    while x >= 0x100:
+    if x >= 0x100000000:
+        x >>= 32
+        n += 32
+    if x >= 0x10000:
+        x >>= 16
+        n += 16
+    if x >= 0x100:
         x >>= 8
         n += 8
     return n + _BITS[x]

@@ -15,7 +15,7 @@ data gradient sum w r, sum v r and the residual sum of squares are computed
 type (shared.solver explains why that is enough).
 """
 
-from shared.moments import INDEX, bit_length, mean_centre, shifted, to_float
+from shared.moments import INDEX, bit_length, mean_centre, recentred, scaled, shifted, to_float
 
 FRAC = 40  # fractional bits of the fixed-point parameters (relative 1e-12)
 
@@ -36,6 +36,8 @@ _IDX3 = [[INDEX[add_exp(UNIT[i], W_EXP[n])] for n in range(6)] for i in range(3)
 _IDX2 = [INDEX[e] for e in W_EXP]
 _IDX1 = [INDEX[e] for e in UNIT]
 _IDX2M = [[INDEX[add_exp(UNIT[i], UNIT[j])] for j in range(3)] for i in range(3)]
+# (storage index, degree) of the power sums the normal matrix uses: degrees 2 to 4
+_MEANS = tuple((INDEX[e], e[0] + e[1] + e[2]) for e in INDEX if 2 <= e[0] + e[1] + e[2] <= 4)
 
 def sym(a):
     return [[a[0], a[3], a[4]], [a[3], a[1], a[5]], [a[4], a[5], a[2]]]
@@ -60,35 +62,44 @@ class Problem:
         if self.e > FRAC:
             raise ValueError("input values too large for the fixed-point frame")
         self.shift = 1 << (FRAC - self.e)
+        self.scaled = scaled(u, self.shift)   # exact sums of V = 2^FRAC v for the centre C
         self.cov = [[num(to_float(c, -2 * self.e)) / (self.nf * self.nf) for c in row] for row in cov]
 
     # -- exact part ----------------------------------------------------------
-    def sums_at(self, f_int):
-        """Exact sums of V = 2^FRAC v for the centre b = C + f_int 2^(e-FRAC)."""
-        return shifted(self.u, self.shift, f_int)
+    def sums_at(self, f_int, near=None):
+        """Exact sums of V = 2^FRAC v for the centre b = C + f_int 2^(e-FRAC); from the sums
+        `near` at the centre f_near, given as (sums, f_near), where one is at hand: the
+        same integers, from smaller products (the iteration's steps are small)."""
+        if near is None:
+            return recentred(self.scaled, f_int)
+        sums, f_near = near
+        return recentred(sums, [f_int[0] - f_near[0], f_int[1] - f_near[1], f_int[2] - f_near[2]])
 
     def exact(self, s, a_int):
-        """(g_A, T, RSS) as exact ints: 2^5F sum w r, 2^4F sum v r, 2^6F sum r^2."""
-        p3 = 1 << (3 * FRAC)
+        """(g_A, T, RSS) as exact ints: 2^5F sum w r, 2^4F sum v r, 2^6F sum r^2.
+
+        With ac_k = W_C[k] a_k (w.a = sum_k ac_k v^(W_EXP k)):
+        g_A[m] = W_C[m] (sum_k ac_k S[W_EXP m + W_EXP k] - 2^3F S[W_EXP m]),
+        T[i] = sum_k ac_k S[e_i + W_EXP k] - 2^3F S[e_i],
+        RSS = 2^6F n - 2^3F sum_m ac_m S[W_EXP m] + sum_m a_m g_A[m].
+        """
+        f3 = 3 * FRAC
+        ac = [a_int[0], a_int[1], a_int[2], a_int[3] << 1, a_int[4] << 1, a_int[5] << 1]
+        a0, a1, a2, a3, a4, a5 = ac
         ga = []
         for m in range(6):
-            acc = 0
-            row = _IDX4[m]
-            crow = _C4[m]
-            for k in range(6):
-                acc += a_int[k] * crow[k] * s[row[k]]
-            ga.append(acc - p3 * W_C[m] * s[_IDX2[m]])
+            r = _IDX4[m]
+            acc = (a0 * s[r[0]] + a1 * s[r[1]] + a2 * s[r[2]] + a3 * s[r[3]] + a4 * s[r[4]] + a5 * s[r[5]]
+                   - (s[_IDX2[m]] << f3))
+            ga.append(acc if m < 3 else acc << 1)
         t = []
         for i in range(3):
-            acc = 0
-            row = _IDX3[i]
-            for k in range(6):
-                acc += a_int[k] * W_C[k] * s[row[k]]
-            t.append(acc - p3 * s[_IDX1[i]])
-        lin = 0
-        for m in range(6):
-            lin += a_int[m] * W_C[m] * s[_IDX2[m]]
-        rss = p3 * p3 * self.n - p3 * lin
+            r = _IDX3[i]
+            t.append(a0 * s[r[0]] + a1 * s[r[1]] + a2 * s[r[2]] + a3 * s[r[3]] + a4 * s[r[4]] + a5 * s[r[5]]
+                     - (s[_IDX1[i]] << f3))
+        r = _IDX2
+        lin = a0 * s[r[0]] + a1 * s[r[1]] + a2 * s[r[2]] + a3 * s[r[3]] + a4 * s[r[4]] + a5 * s[r[5]]
+        rss = (self.n << (2 * f3)) - (lin << f3)
         for m in range(6):
             rss += a_int[m] * ga[m]
         return ga, t, rss
@@ -97,20 +108,42 @@ class Problem:
     def value(self, x, exponent):
         return self.num(to_float(x, exponent))
 
-    def normal_equations(self, s, a_int, ga, t):
-        """Per-sample normal matrix H (9x9) and gradient g of (1) at the state."""
+    def normal_equations(self, s, a_int, ga, t, a=None):
+        """Per-sample normal matrix H (9x9) and gradient g of (1) at the state.
+
+        a: the floats of a_int where the caller has them (the same numbers). Each power sum
+        is converted to a float once (the symmetric blocks share them), each entry formed
+        by the same operations as if written out.
+        """
         num = self.num
         nf = self.nf
         two = num(2.0)
-        a = [self.value(x, -FRAC) for x in a_int]
+        if a is None:
+            a = [self.value(x, -FRAC) for x in a_int]
         am = sym(a)
-        m4 = [[self.value(s[_IDX4[m][k]], -4 * FRAC) * num(float(_C4[m][k])) / nf for k in range(6)] for m in range(6)]
-        m3 = [[self.value(s[_IDX3[i][k]], -3 * FRAC) * num(float(W_C[k])) / nf for k in range(6)] for i in range(3)]
-        m2 = [[self.value(s[_IDX2M[i][j]], -2 * FRAC) / nf for j in range(3)] for i in range(3)]
-        h = [[num(0.0)] * 9 for _ in range(9)]
+        # the mean of each power sum of degree 2..4 the blocks use, by storage index
+        mean = [None] * len(s)
+        for idx, degree in _MEANS:
+            mean[idx] = num(to_float(s[idx], -degree * FRAC))
+        weights = [num(float(c)) for c in (1, 2, 4)]
+        m4 = [[None] * 6 for _ in range(6)]
         for m in range(6):
-            for k in range(6):
-                h[m][k] = m4[m][k]
+            row4 = _IDX4[m]
+            crow = _C4[m]
+            out = m4[m]
+            for k in range(m, 6):
+                x = mean[row4[k]] * weights[crow[k] >> 1] / nf
+                out[k] = x
+                m4[k][m] = x
+        m3 = [[mean[_IDX3[i][k]] * weights[W_C[k] >> 1] / nf for k in range(6)] for i in range(3)]
+        m2 = [[None] * 3 for _ in range(3)]
+        for i in range(3):
+            for j in range(i, 3):
+                x = mean[_IDX2M[i][j]] / nf
+                m2[i][j] = x
+                m2[j][i] = x
+        h = [m4[m] + [None] * 3 for m in range(6)] + [[None] * 9 for _ in range(3)]
+        for m in range(6):
             for i in range(3):
                 # d r / d f_i = -2 (A v)_i
                 x = -two * (am[i][0] * m3[0][m] + am[i][1] * m3[1][m] + am[i][2] * m3[2][m])

@@ -22,8 +22,14 @@ def initial_guesses(pb):
     e = pb.e
     u = pb.u
 
+    means = [None] * len(u)   # each moment converted once: the Gram matrices repeat them
+
     def mu(exp):
-        return num(to_float(u[INDEX[exp]], -e * (exp[0] + exp[1] + exp[2]))) / nf
+        idx = INDEX[exp]
+        x = means[idx]
+        if x is None:
+            x = means[idx] = num(to_float(u[idx], -e * (exp[0] + exp[1] + exp[2]))) / nf
+        return x
 
     guesses = []
     feats = [(W_EXP[m], W_C[m]) for m in range(6)] + [(UNIT[i], 1) for i in range(3)]

@@ -13,8 +13,8 @@ from desktop.sim.points import directions
 from desktop.sim.sensor import Sensor
 from shared.calibration import Calibration
 from shared.fit import EllipsoidFit, FitError
-from shared.moments import ORDER, shifted
-from shared.quadric import FRAC
+from shared.moments import ORDER, bit_length, shifted
+from shared.quadric import FRAC, W_C, W_EXP, Problem
 from tests.scenarios import FIELD, LSB, scenario
 
 triples = st.lists(st.tuples(*[st.integers(-2**40, 2**40)] * 3), min_size=1, max_size=40)
@@ -78,6 +78,41 @@ def test_shifted_sums_are_the_sums_of_the_shifted_points(points, scale, centre):
     power sums of the moved points themselves."""
     moved = [(scale * x - centre[0], scale * y - centre[1], scale * z - centre[2], 1) for x, y, z in points]
     assert shifted(naive_sums([p + (1,) for p in points]), scale, list(centre)) == naive_sums(moved)
+
+
+offsets = st.tuples(*[st.integers(-2**50, 2**50)] * 3)
+
+
+@settings(max_examples=40, deadline=None)
+@given(points=st.lists(st.tuples(*[st.integers(-2**23, 2**23)] * 3), min_size=2, max_size=30),
+       f_far=offsets, f=offsets, a=st.tuples(*[st.integers(-2**45, 2**45)] * 6))
+def test_the_solvers_exact_terms_are_the_per_sample_sums(points, f_far, f, a):
+    """The iteration's sums re-centred from a nearby state's (a step's start) are the
+    problem's own at that centre, and (g_A, T, RSS) are the plain sums over the samples of
+    R = 2^3F r = sum_k W_C[k] a_k V^(W_EXP k) - 2^3F with V = 2^FRAC v (shared/quadric.py):
+    2^5F sum w r = sum W_C[m] V^(W_EXP m) R, 2^4F sum v r = sum V R, 2^6F sum r^2 = sum R^2."""
+    pb = Problem(naive_sums([p + (1,) for p in points]), float)
+    s = pb.sums_at(list(f))
+    assert pb.sums_at(list(f), (pb.sums_at(list(f_far)), list(f_far))) == s
+    vs = [[pb.shift * (p[i] - pb.centre[i]) - f[i] for i in range(3)] for p in points]
+    assert s == naive_sums([tuple(v) + (1,) for v in vs])
+
+    def mono(v, e):
+        return v[0] ** e[0] * v[1] ** e[1] * v[2] ** e[2]
+
+    big = [sum(W_C[k] * a[k] * mono(v, W_EXP[k]) for k in range(6)) - 2 ** (3 * FRAC) for v in vs]
+    ga, t, rss = pb.exact(s, list(a))
+    assert ga == [sum(W_C[m] * mono(v, W_EXP[m]) * r for v, r in zip(vs, big)) for m in range(6)]
+    assert t == [sum(v[i] * r for v, r in zip(vs, big)) for i in range(3)]
+    assert rss == sum(r * r for r in big)
+
+
+@settings(max_examples=200, deadline=None)
+@given(x=st.one_of(st.integers(-2**600, 2**600), st.builds(lambda k, d: 2**k + d, st.integers(0, 600),
+                                                          st.sampled_from([-1, 0, 1]))))
+def test_bit_length_is_ints_own(x):
+    """shared.moments.bit_length (MicroPython ints have none) across its halving steps' edges."""
+    assert bit_length(x) == x.bit_length() == bit_length(-x)
 
 
 def test_slots_hold_a_full_pack_of_inputs_at_the_width_limit():
