@@ -58,6 +58,7 @@ class App:
         self.button = Button(board)
         self.led = led = Led(board)
         self.quit = False
+        self.recorder = None      # a survey being recorded (`survey start`: surveylog.py, imported then)
         self.watchdog_ms = None   # the watchdog's timeout once run() started one
         self.guard = Guard(board, proto)   # counts this boot: safe mode if the last ones never became healthy
         body, _src, problem = store.load(board.root, "config")
@@ -125,6 +126,8 @@ class App:
             feed()
             self.wait()
         self.output.close()
+        if self.recorder is not None:
+            self.recorder.stop()
         if self.quit:   # `repl`: the loop ended as asked (a deploy follows), not a crash or a hang
             guard.finished()
         b.hand_back()   # `repl` (self.quit): main.py / code.py ends next, the REPL takes the line
@@ -140,7 +143,10 @@ class App:
         sup.check(b.ticks_ms())
         ev = self.button.poll()
         if ev is not None:
-            flow.press(ev)
+            if self.recorder is not None:
+                self.recorder.press(ev)     # recording a survey: a short press marks a line end
+            else:
+                flow.press(ev)
         self.proto.poll()
         if flow.session is not None:
             flow.tick()

@@ -2,6 +2,7 @@
 
     btn = Button(board)
     ev = btn.poll()   # None, SHORT (on release) or LONG (once, while still held)
+    btn.pressed_at    # ticks_ms the last press's contact closed (before the debounce): a survey mark's time
 
 Polled rather than interrupt driven: CircuitPython has no user interrupts, and
 a human press lasts tens of milliseconds, far longer than a main-loop pass.
@@ -23,6 +24,7 @@ class Button:
         self._raw = False
         self._changed = board.ticks_ms()
         self._down_at = 0
+        self.pressed_at = 0
         self._long_sent = False
 
     def poll(self):
@@ -41,6 +43,7 @@ class Button:
         self._level = raw
         if raw:
             self._down_at = now
+            self.pressed_at = self._changed     # the first edge of the level that held
             self._long_sent = False
             return None
         return None if self._long_sent else SHORT

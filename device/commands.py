@@ -33,6 +33,8 @@ def parse_value(text):
 def _idle(app):
     if app.flow.session is not None:
         raise ProtocolError(codes.BUSY, "calibration in progress; cancel-cal first")
+    if app.recorder is not None:
+        raise ProtocolError(codes.BUSY, "survey recording; survey stop first")
 
 
 def version(app, args):
@@ -86,6 +88,8 @@ def clear_cal(app, args):
 
 
 def start_cal(app, args):
+    if app.recorder is not None:
+        raise ProtocolError(codes.BUSY, "survey recording; survey stop first")
     # start-cal [auto|full|quick] [hold]: auto (the button's short press) ends quick when a
     # calibration is in force and the coverage stays partial, else full; hold: the session
     # waits for finish-cal (or the button) even once it is ready and auto_finish is on
@@ -162,6 +166,35 @@ def repl(app, args):
     return {}
 
 
+def survey(app, args):
+    """survey start | stop | info | read OFFSET: a walked survey's marks and flash log (surveylog.py,
+    imported on the first use: a handheld that never surveys never loads it)."""
+    import surveylog
+    words = args.split()
+    what = words[0] if words else "info"
+    rec = app.recorder
+    if what == "start" and len(words) == 1:
+        _idle(app)
+        rec = surveylog.Recorder(app.board, app.proto, app.board.root, app.button)
+        app.recorder = app.output.recorder = rec
+        app.output.set_stream(app.output.stream)    # |B| per block from now, streamed or not
+        return rec.status()
+    if what == "stop" and len(words) == 1:
+        if rec is None:
+            raise ProtocolError(codes.BAD_ARGUMENT, "no survey is recording")
+        rec.stop()
+        app.recorder = app.output.recorder = None
+        app.output.set_stream(app.output.stream)
+        return rec.status()
+    if what == "info" and len(words) == 1:
+        return rec.status() if rec is not None else {"recording": False}
+    if what == "read" and len(words) == 2 and words[1].isdigit():
+        if rec is not None:
+            rec.flush()
+        return surveylog.read_chunk(app.board.root, int(words[1]))
+    raise ProtocolError(codes.BAD_ARGUMENT, "survey takes: start | stop | info | read OFFSET")
+
+
 def help_(app, args):
     names = list(TABLE)
     names.sort()
@@ -181,5 +214,6 @@ TABLE = {
     "stream": stream,
     "config": config,
     "repl": repl,
+    "survey": survey,
     "help": help_,
 }

@@ -50,6 +50,15 @@ def file_path(root, name):
     return root + "/" + name if root else name
 
 
+def free_bytes(root):
+    """Bytes free on the filesystem of root, or None where the port cannot say (no statvfs)."""
+    try:
+        s = os.statvfs(root or ".")
+        return s[0] * s[4]   # f_bsize * f_bavail
+    except (OSError, AttributeError):
+        return None
+
+
 def _exists(path):
     try:
         os.stat(path)

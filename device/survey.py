@@ -39,7 +39,7 @@ import os
 
 from protocol import json_number
 from screen import Screen
-from store import file_path
+from store import file_path, free_bytes
 
 # re-apply the temperature coefficients when the die moved this much: at 20 ppm/C and
 # 1 nT/C a step of 0.05 nT at 48,000 nT, below the noise
@@ -118,11 +118,7 @@ class RotatingLog:
         return file_path(self.root, "log%d.csv" % i)
 
     def free_bytes(self):
-        try:
-            s = os.statvfs(self.root or ".")
-            return s[0] * s[4]   # f_bsize * f_bavail
-        except (OSError, AttributeError):
-            return None
+        return free_bytes(self.root)
 
     def _open_next(self):
         self.close()
@@ -179,6 +175,7 @@ class Output:
         self.cfg = None
         self.stream = "off"        # "off", "raw" or "corrected" (the stream command, config)
         self.log = None
+        self.recorder = None       # a survey being recorded (surveylog.Recorder): each block's |B|
         self.survey = None
         self.screen = None
         self.scale = None
@@ -219,7 +216,7 @@ class Output:
     def _outputs(self):
         # |h_c| per sample is only needed when a block goes out (stream or log);
         # the calibration in sum units saves three divisions per sample
-        want = self.stream != "off" or self.log is not None
+        want = self.stream != "off" or self.log is not None or self.recorder is not None
         if want and not self._want_f:
             self.survey.restart()   # the open block's samples carry no |h_c|: start a new one
         self._want_f = want
@@ -315,6 +312,8 @@ class Output:
                                       "c": [r(x, 2), r(y, 2), r(z, 2)], "cal": cal is not None, "warn": msg})
         elif self.stream == "raw":
             self.proto.event("raw", {"t": t, "c": [r(x, 2), r(y, 2), r(z, 2)], "temp": r(temp, 2)})
+        if self.recorder is not None:
+            self.recorder.block(t, f)
         if self.log is not None and self.session is None:
             self.log.write("%d,%.3f,%.3f,%.3f,%.3f,%.2f\n" % (t, bx, by, bz, f, temp))
 

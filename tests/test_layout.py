@@ -39,7 +39,7 @@ RULES = {
                                                "desktop.firmware", "desktop.views", CODES)),
     "desktop/bench": (("numpy", "serial"), ("shared", "desktop.sim", "desktop.methods", "desktop.devicesim", "desktop.survey",
                                              "desktop.firmware", "desktop.formats", "desktop.link")),
-    "desktop/link": (("serial",), (CODES,)),
+    "desktop/link": (("serial", "pynmea2"), (CODES,)),     # pynmea2: the GPS's NMEA (the gps extra)
     "desktop/cli": (("numpy", "matplotlib", "rich"), ("shared", "desktop")),
 }
 # the MicroPython-only modules shared/ guards with try/except ImportError

@@ -20,7 +20,7 @@ import signal
 import sys
 
 from desktop.cli import (calibrate, capture, correct, demo, deploy, emulate, experiment, fit, map, monitor,
-                         pull_cal, push_cal, report, simulate, status, tempco)
+                         pull_cal, push_cal, report, simulate, status, survey, tempco)
 from desktop.cli._errors import CommandError
 from desktop.formats import FormatError
 
@@ -31,6 +31,7 @@ COMMANDS = {
     "correct": correct,
     "demo": demo,
     "simulate": simulate,
+    "survey": survey,
     "map": map,
     "experiment": experiment,
     "status": status,
@@ -45,7 +46,7 @@ COMMANDS = {
 }
 
 # the top-level module an optional extra of the package brings -> that extra (pyproject.toml)
-EXTRAS = {"matplotlib": "plots", "mpl_toolkits": "plots"}
+EXTRAS = {"matplotlib": "plots", "mpl_toolkits": "plots", "pynmea2": "gps"}
 
 __all__ = ["COMMANDS", "CommandError", "EXTRAS", "build_parser", "main", "version"]
 

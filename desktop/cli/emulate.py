@@ -1,15 +1,22 @@
 """fluxcal emulate [--runtime R] [--sensor S] [--flash DIR] [--bare] [--operator MODE] [--script FILE] [--seconds S]
+                 [--survey WxL --line-spacing S [--zigzag] [--site SEED]]
 
 --operator: what the virtual operator does from the start: follow (the LED: turn
 while it says "collecting", hold still otherwise), turn (turn the sensor by hand
 all the time, as an operator does during `fluxcal capture`), hold (keep it
 still). Keys and --script change it later.
+
+--survey: the operator is a surveyor on a simulated site (buried iron, a pipe, soil
+clutter, diurnal drift: desktop/sim/site.py) who waits at the first line's start and, on
+`walk` (key w, or a script's line), walks the grid and presses the button at the start
+and the end of every line (desktop/devicesim/walker.py): `fluxcal survey` records it.
 """
 
 HELP = "a virtual handheld on a pseudo-terminal: the firmware on the simulated fluxgate, in real time"
 
 OPERATOR = {"follow": "follow", "turn": "hand", "hold": "hold"}     # --operator -> the operator's action
-KEYS = {"r": "hand", "h": "hold", "s": "spin", "f": "follow", "p": "press", "l": "long-press", "c": "power-cycle"}
+KEYS = {"r": "hand", "h": "hold", "s": "spin", "f": "follow", "p": "press", "l": "long-press", "c": "power-cycle",
+        "w": "walk"}
 STATUS_S = 10.0
 BOOT_WAIT_S = 300.0   # the emulated Pico's boot takes wall seconds, many on a loaded machine
 
@@ -29,6 +36,10 @@ def add_arguments(p):
                         " records a turning sensor), or hold still")
     p.add_argument("--script", help="the operator's actions: lines 'SECONDS ACTION [ARG]', e.g. '2 press'")
     p.add_argument("--seconds", type=float, help="stop after this long (default: until Ctrl-C or 'q')")
+    p.add_argument("--survey", metavar="WxL", help="a surveyor on a simulated site of this grid, m (walks on 'walk')")
+    p.add_argument("--line-spacing", type=float, default=1.0, metavar="S", help="--survey's lines, m apart (default 1)")
+    p.add_argument("--zigzag", action="store_true", help="--survey: walk every other line back")
+    p.add_argument("--site", type=int, default=0, metavar="SEED", help="--survey: the site's objects and clutter")
     p.add_argument("--speed", type=float, default=1.0,
                    help="simulated seconds per wall second (default 1: real time; more, to test a machine's margin)")
 
@@ -69,6 +80,7 @@ def run(args):
     from desktop.link.ports import announce_emulator
 
     script = read_script(args.script) if args.script else []
+    survey = _survey(args)
     behind = []
 
     def on_behind(lag, capacity):
@@ -81,7 +93,7 @@ def run(args):
     os.makedirs(flash, exist_ok=True)
     if args.runtime == "cpython":
         hh = InProcessHandheld(os.path.dirname(flash), sensor=args.sensor, seed=args.seed, speed=args.speed,
-                               on_behind=on_behind)
+                               on_behind=on_behind, survey=survey)
     elif args.runtime == "pico":
         from desktop.devicesim.pico_handheld import PicoHandheld
         try:        # its clock is the emulated chip's: no --speed, it never runs ahead of real time
@@ -91,7 +103,7 @@ def run(args):
     else:
         try:
             hh = VirtualHandheld(flash, runtime=args.runtime, sensor=args.sensor, seed=args.seed, speed=args.speed,
-                                 on_behind=on_behind)
+                                 on_behind=on_behind, survey=survey)
         except FileNotFoundError as exc:
             raise CommandError(str(exc))
     keys = _Keys(hh, done)
@@ -107,7 +119,7 @@ def run(args):
     announced = None
     try:
         hh.start()
-        if args.operator != "follow":
+        if args.operator != "follow" and survey is None:
             hh.act(OPERATOR[args.operator])
         print("fluxcal emulate: virtual handheld (%s, %s) on %s" % (args.runtime, args.sensor, hh.port), flush=True)
         announced = announce_emulator(hh.port, args.runtime)    # `fluxcal status` without --port finds it
@@ -125,8 +137,8 @@ def run(args):
         print("ready: %s" % ("an empty board, its REPL on the port" if args.bare else "the firmware runs"),
               flush=True)
         if sys.stdin.isatty():
-            print("keys: r turn by hand, h hold, s spin, f follow the LED, p press, l long press,"
-                  " c power cycle, q quit", flush=True)
+            first = "w walk the survey" if survey else "r turn by hand, h hold, s spin, f follow the LED"
+            print("keys: %s, p press, l long press, c power cycle, q quit" % first, flush=True)
         keys.start()
         t0 = time.monotonic()
         nxt = STATUS_S
@@ -156,6 +168,19 @@ def run(args):
     return 0
 
 
+def _survey(args):
+    """--survey's settings for the Scenario (desktop/sim/scenario.py), None without it."""
+    from desktop.cli._errors import CommandError
+    if args.survey is None:
+        return None
+    if args.runtime == "pico":
+        raise CommandError("--survey runs on the simulated boards (not --runtime pico)")
+    from desktop.cli._survey_grid import parse_grid
+    width, length = parse_grid(args.survey, args.line_spacing, "--survey")
+    return dict(width_m=width, length_m=length, spacing_m=args.line_spacing, zigzag=args.zigzag,
+                site_seed=args.site)
+
+
 def _act(hh, action, arg):
     from desktop.cli._errors import CommandError
     try:
@@ -167,7 +192,7 @@ def _act(hh, action, arg):
 def _status(hh, now):
     p = hh.pacer
     cap = "%.1fx" % p.capacity if p is not None and p.capacity else "-"
-    who = "following the LED" if hh.hands.following else "by hand"
+    who = "following the LED" if hh.hands.following else "by hand" if not hasattr(hh.operator, "begin") else "survey"
     print("%6.0f s  simulated %.1f s  capacity %s real time  operator: %s (%s)"
           % (now, hh.world.time, cap, hh.operator.mode, who), flush=True)
 

@@ -100,14 +100,8 @@ def scenario_from_args(args):
 
 
 def _survey_settings(args):
-    try:
-        width, length = (float(v) for v in args.grid.lower().split("x"))
-    except ValueError:
-        raise CommandError("--grid must be WIDTHxLENGTH in metres, e.g. 20x20, got %r" % args.grid)
-    if not (1 <= width <= 200 and 1 <= length <= 200):
-        raise CommandError("--grid sides must be within 1..200 m")
-    if not 0.1 <= args.line_spacing <= width:
-        raise CommandError("--line-spacing must be within 0.1 m and the grid's width")
+    from desktop.cli._survey_grid import parse_grid
+    width, length = parse_grid(args.grid, args.line_spacing)
     if not 0.2 <= args.speed <= 3:
         raise CommandError("--speed must be within 0.2..3 m/s")
     if not 0 <= args.clutter <= 100 or args.diurnal < 0:

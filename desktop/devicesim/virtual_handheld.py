@@ -43,7 +43,7 @@ from desktop.sim.operator import LiveOperator
 from desktop.sim.scenario import Scenario
 
 RUNTIMES = ("micropython", "micropython-float32", "micropython-reprc", "circuitpython")
-ACTIONS = ("hand", "hold", "spin", "follow", "press", "long-press", "power-cycle", "field-step")
+ACTIONS = ("hand", "hold", "spin", "follow", "press", "long-press", "power-cycle", "field-step", "walk")
 _LONG_S = 2.0        # a long press (cancel: 1.5 s in device/button.py)
 
 
@@ -59,8 +59,14 @@ def led_says_turn(led_log, now):
     return 3 <= edges <= 16
 
 
-def live_world(sensor="mag649", seed=0, motion_seed=1, serial=None):
-    """A World on a live handheld (its operator decides as time goes), and that operator."""
+def live_world(sensor="mag649", seed=0, motion_seed=1, serial=None, survey=None):
+    """A World on a live handheld (its operator decides as time goes), and that operator; with
+    `survey` (Scenario's survey settings: the grid, the site) a surveyor on that site (walker.py)."""
+    if survey is not None:
+        from desktop.devicesim.walker import Walker
+        sc = Scenario(sensor=sensor, seed=seed, motion_seed=motion_seed, motion="survey", survey=survey, rate=1000)
+        operator = Walker(sc.walk())
+        return World(Handheld(sc, operator=operator, batch=512), serial=serial), operator
     sc = Scenario(sensor=sensor, seed=seed, motion_seed=motion_seed, motion="stationary", seconds=1.0, rate=1000)
     operator = LiveOperator(np.random.default_rng(motion_seed), mode="hold")
     return World(Handheld(sc, operator=operator, batch=512), serial=serial), operator
@@ -73,7 +79,7 @@ class Hands:
     def __init__(self, world, operator):
         self.world = world
         self.operator = operator
-        self.following = True
+        self.following = not hasattr(operator, "begin")     # a surveyor walks, it does not follow the LED
         self.field_steps = []       # (chip time the step happens, nT, wall time it was asked for)
         self.steps_reached = []     # wall time at which simulated time reached each field step
         self._actions = queue.Queue()
@@ -81,6 +87,11 @@ class Hands:
     def act(self, action, arg=None):
         if action not in ACTIONS:
             raise ValueError("unknown action %r (one of %s)" % (action, ", ".join(ACTIONS)))
+        surveyor = hasattr(self.operator, "begin")
+        if action == "walk" and not surveyor:
+            raise ValueError("walk needs a site to walk: fluxcal emulate --survey WxL")
+        if surveyor and action in ("hand", "hold", "spin", "follow"):
+            raise ValueError("the surveyor walks the grid (walk); %s is the calibration's operator's" % action)
         self._actions.put((action, arg))
 
     def step(self):
@@ -99,6 +110,10 @@ class Hands:
                 w.press(float(arg) if arg else 0.2)
             elif action == "long-press":
                 w.press(_LONG_S)
+            elif action == "walk":
+                t0 = w.handheld.t0
+                for down, up in self.operator.begin(w.time - t0):
+                    w.press(up - down, at=t0 + down)
             elif action == "field-step":
                 self.field_steps.append((w.handheld.step_field(float(arg) if arg else 100.0), arg, time.monotonic()))
         if len(self.steps_reached) < len(self.field_steps) and w.time >= self.field_steps[len(self.steps_reached)][0]:
@@ -109,7 +124,7 @@ class Hands:
 
 class VirtualHandheld(VirtualBoard):
     def __init__(self, flash, runtime="micropython", sensor="mag649", seed=0, motion_seed=1, heap=None,
-                 speed=1.0, on_behind=None):
+                 speed=1.0, on_behind=None, survey=None):
         if runtime not in RUNTIMES:
             raise ValueError("unknown runtime %r (one of %s)" % (runtime, ", ".join(RUNTIMES)))
         exe = interpreter(runtime)
@@ -120,7 +135,7 @@ class VirtualHandheld(VirtualBoard):
         self.heap = heap_for(runtime, heap)
         self.speed = speed
         self.on_behind = on_behind
-        self.world, self.operator = live_world(sensor, seed, motion_seed)
+        self.world, self.operator = live_world(sensor, seed, motion_seed, survey=survey)
         self.scenario = self.world.scenario
         self.hands = Hands(self.world, self.operator)
         self.pacer = None
@@ -207,8 +222,8 @@ class InProcessHandheld:
     """The same live handheld with the firmware in this CPython process (device/sim/hal_sim.py), its
     serial on the World's pty: no REPL and no deploying, for working on the protocol fast."""
 
-    def __init__(self, root, sensor="mag649", seed=0, motion_seed=1, speed=1.0, on_behind=None):
-        self.world, self.operator = live_world(sensor, seed, motion_seed, serial="pty")
+    def __init__(self, root, sensor="mag649", seed=0, motion_seed=1, speed=1.0, on_behind=None, survey=None):
+        self.world, self.operator = live_world(sensor, seed, motion_seed, serial="pty", survey=survey)
         self.scenario = self.world.scenario
         self.hands = Hands(self.world, self.operator)
         self.port = self.world.serial_port

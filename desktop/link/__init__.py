@@ -10,6 +10,7 @@
 
 - ports.py: which port (auto-detection by USB vendor, or the list to choose from).
 - lines.py: bytes in, protocol lines out; noise and broken lines skipped and counted.
+- gps.py: a GPS receiver on a second port (NMEA by pynmea2), for `fluxcal survey --gps`.
 - client.py: the Device: requests and replies with a deadline on every read, events
   kept apart, the protocol version checked on connect.
 

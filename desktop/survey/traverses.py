@@ -2,7 +2,7 @@
 
     lines, grid = read_survey("survey.npz", cal=None)     # cal: a shared.calibration.Calibration
 
-Input: the capture `fluxcal simulate --motion survey` writes (desktop/formats/capture.py):
+Input: the capture `fluxcal simulate --motion survey` or `fluxcal survey` writes (desktop/formats/capture.py):
 the raw codes of every conversion, their times, `line_marks` (the marker pressed at
 each traverse's start and end) and the grid in config["survey"] (width_m east,
 length_m north, spacing_m, zigzag). With a calibration the readings are corrected
@@ -13,7 +13,8 @@ Positions come as MagMap2000 places them (survey-practice.md s.1): the reading a
 line's first marker is at the line's start, the one at its last marker at its end,
 and the readings between are spread evenly in time (the walker kept the pace).
 The conversions are then averaged into samples every `sample_m` along the line
-(8 per metre, a Grad601's densest setting), each at its bin's centre.
+(8 per metre, a Grad601's densest setting), each at its bin's centre. A recording of
+`fluxcal survey` has its |B| already (f_nT, the handheld's blocks, 10 a second by default).
 """
 
 import numpy as np
@@ -49,8 +50,15 @@ def survey_grid(cap, path="survey"):
 
 
 def magnitudes(cap, cal=None):
-    """(N,) |B| of every reading, nT: corrected by `cal` (nT or code units) if given."""
+    """(N,) |B| of every reading, nT: corrected by `cal` (nT or code units) if given. A recording
+    of `fluxcal survey` holds |B| as the handheld computed it (f_nT, its calibration in force):
+    that, unless `cal` asks for the codes to be corrected here."""
+    if "f_nT" in cap and cal is None:
+        return np.asarray(cap["f_nT"], dtype=float)
     h = field_nT(cap)
+    if np.isnan(h).any():
+        raise FormatError("%d readings of this recording came from the handheld's flash log, which keeps |B| "
+                          "only: --cal needs the codes (map it without --cal)" % np.isnan(h).any(axis=1).sum())
     if cal is not None:
         cal = to_nT_units(cal, cap["nT_per_code"])
         h = (h - np.asarray(cal.offset)) @ np.asarray(cal.matrix).T

@@ -1,0 +1,146 @@
+"""The laptop's survey chain as a user runs it: `fluxcal emulate --survey` (the firmware on the
+byte-level handheld, a surveyor walking a simulated site and pressing the button at each line
+end), `fluxcal survey` recording it, the laptop dying mid-walk, `fluxcal survey --resume`
+completing the file from the handheld's flash log, `fluxcal map` mapping it, and `--pull`
+rebuilding the whole survey from the flash log alone. Then the one-line refusals.
+
+Every step a `fluxcal` command in a subprocess, as typed; the emulator is the in-process
+firmware (`--runtime cpython`), in real time. No wall-clock limit is asserted: the waits are
+deadlines for a hang only.
+"""
+
+import os
+import pty
+import signal
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from desktop.sim.scenario import Scenario
+from tests.test_cli_field import one_line_error, runtime_env  # noqa: F401 - runtime_env is a fixture
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FLUXCAL = os.path.join(os.path.dirname(sys.executable), "fluxcal")
+GRID, SPACING = "4x3", 1.0          # 4 lines of 3 m, zig-zag: about 30 s of walking
+NO_HANG_S = 300
+MAIN_LOOP_S = 0.02                  # device/app.py _HOUSE_MS: the button is read once a pass
+BLOCK_S = 0.1                       # survey_hz 10 (device/config.py): one |B| block per 0.1 s
+
+
+def fluxcal(*args, env=None, **kw):
+    return subprocess.run([FLUXCAL, *map(str, args)], capture_output=True, text=True, cwd=ROOT, env=env,
+                          timeout=NO_HANG_S, **kw)
+
+
+@pytest.fixture
+def surveyor(runtime_env):
+    """A virtual handheld whose operator waits at the first line's start until told `w`."""
+    emu = subprocess.Popen([FLUXCAL, "emulate", "--runtime", "cpython", "--survey", GRID, "--line-spacing",
+                            str(SPACING), "--zigzag", "--site", "3"], cwd=ROOT, env=runtime_env,
+                           stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        first = emu.stdout.readline()
+        assert " on /dev/" in first, first + emu.stderr.read()
+        assert emu.stdout.readline().startswith("ready:")
+        yield emu, first.split(" on ")[-1].strip()
+    finally:
+        emu.terminate()
+        emu.wait(timeout=60)
+
+
+def _survey(port, *extra, env):
+    return subprocess.Popen([FLUXCAL, "survey", "--port", port, *map(str, extra)], cwd=ROOT, env=env,
+                            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _read_until(proc, words):
+    seen = []
+    for line in proc.stdout:
+        seen.append(line)
+        if words in line:
+            return seen
+    raise AssertionError("%r never came: %s%s" % (words, "".join(seen), proc.stderr.read()))
+
+
+def test_a_survey_recorded_resumed_after_the_laptop_died_mapped_and_pulled(surveyor, runtime_env, tmp_path):
+    emu, port = surveyor
+    out = str(tmp_path / "survey.npz")
+    rec = _survey(port, "--grid", GRID, "--line-spacing", SPACING, "--zigzag", "--pace", 1.0, "-o", out,
+                  env=runtime_env)
+    _read_until(rec, "recording")
+    emu.stdin.write("w")            # the surveyor starts walking once the laptop records
+    emu.stdin.flush()
+    _read_until(rec, "line 1 ended")
+    rec.send_signal(signal.SIGKILL)     # the laptop dies mid-walk: nothing is closed or said
+    rec.wait(timeout=60)
+    assert os.path.exists(out)      # saved at every mark
+
+    again = _survey(port, "--resume", "-o", out, env=runtime_env)
+    lines = _read_until(again, "survey complete")
+    stdout, stderr = again.communicate(timeout=NO_HANG_S)
+    assert again.returncode == 0, stderr
+    assert lines[0].startswith("resumed: ") and "wrote %s" % out in stdout, "".join(lines) + stdout
+
+    z = np.load(out)
+    walk = Scenario(motion="survey", motion_seed=1, survey=dict(width_m=4, length_m=3, spacing_m=1.0,
+                                                                zigzag=True, site_seed=3)).walk()
+    truth = np.asarray(walk.line_marks).ravel()
+    marks = z["marks_s"]
+    assert len(marks) == len(truth) == 8 and z["line_marks"].shape == (4, 2)
+    # the board's marks are the walker's presses (the same walk, started when told): their
+    # spacings agree to a main-loop pass at each end (the button is read once a pass)
+    err = np.abs((marks - marks[0]) - (truth - truth[0]))
+    assert err.max() <= 2 * MAIN_LOOP_S + 0.002, err
+    # no block lost while the laptop was gone: one every 0.1 s from the first to the last, each
+    # stamped when the main loop takes it (a pass or so after its end); a lost one is a 0.2 s gap
+    t = z["t"]
+    assert len(t) == round((t[-1] - t[0]) / BLOCK_S) + 1 and np.diff(t).max() < 1.5 * BLOCK_S, np.diff(t).max()
+    assert t[0] <= marks[0] and t[-1] >= marks[-1]
+    from_log = np.isnan(z["codes"][:, 0])
+    assert from_log.sum() > 10 and not np.isnan(z["f_nT"]).any()    # the seconds the laptop missed
+    # the Earth field of the simulator (desktop/sim/field.py) plus the site's iron, as the
+    # uncalibrated Mag649 reads it (heading error of hundreds of nT)
+    assert 40000 < z["f_nT"].min() and z["f_nT"].max() < 60000
+
+    m = fluxcal("map", out, "-o", tmp_path / "map", "--sample", 0.25, env=runtime_env)
+    assert m.returncode == 0, m.stderr
+    assert "4 m x 3 m, 4 traverses 1 m apart (zig-zag), uncalibrated" in m.stdout, m.stdout
+    assert os.path.exists(tmp_path / "map" / "map.png")
+
+    # after the fact: the handheld's flash log alone gives the same survey (|B| to 0.01 nT)
+    pulled = str(tmp_path / "pulled.npz")
+    p = fluxcal("survey", "--port", port, "--pull", "--grid", GRID, "--line-spacing", SPACING, "--zigzag",
+                "-o", pulled, env=runtime_env)
+    assert p.returncode == 0, p.stderr
+    y = np.load(pulled)
+    assert np.array_equal(y["marks_s"], marks)
+    assert np.array_equal(y["t"], t), (sorted(set(y["t"]) ^ set(t)), np.isnan(z["codes"][-3:, 0]))
+    assert np.abs(y["f_nT"] - z["f_nT"]).max() <= 0.005 + 1e-9     # the log's hundredths of a nT
+    assert "4 of 4 lines marked" in p.stdout, p.stdout
+
+
+def test_without_a_handheld_a_wrong_port_or_the_gps_extra_the_survey_says_so_in_one_line(tmp_path, runtime_env):
+    out = tmp_path / "s.npz"
+    line = one_line_error(fluxcal("survey", "--grid", "4x3", "--line-spacing", 1, "-o", out, env=runtime_env))
+    assert "fluxcal emulate" in line or "no " in line, line          # nothing attached: what to do
+    line = one_line_error(fluxcal("survey", "--port", "/dev/fluxcal-no-such-port", "--grid", "4x3",
+                                  "--line-spacing", 1, "-o", out))
+    assert "no such port" in line, line
+    master, slave = pty.openpty()      # a port nobody answers on
+    try:
+        line = one_line_error(fluxcal("survey", "--port", os.ttyname(slave), "--timeout", 1, "--grid", "4x3",
+                                      "--line-spacing", 1, "-o", out))
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert "no reply to 'version'" in line, line
+    line = one_line_error(fluxcal("survey", "--grid", "4y3", "--line-spacing", 1, "-o", out))
+    assert "--grid must be WIDTHxLENGTH" in line, line
+    code = ("import sys; sys.modules['pynmea2'] = None; sys.argv[0] = 'fluxcal'; from desktop.cli import main; "
+            "sys.exit(main(sys.argv[1:]))")
+    r = subprocess.run([sys.executable, "-c", code, "survey", "--gps", "/dev/ttyUSB9", "--grid", "4x3",
+                        "--line-spacing", "1", "-o", str(out)], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert one_line_error(r) == "fluxcal: survey needs pynmea2, which is not installed: pip install 'fluxcal[gps]'"
+    assert not out.exists()
