@@ -79,8 +79,8 @@ def test_a_survey_recorded_resumed_after_the_laptop_died_mapped_and_pulled(surve
 
     again = _survey(port, "--resume", "-o", out, env=runtime_env)
     lines = _read_until(again, "survey complete")
-    stdout, stderr = again.communicate(timeout=NO_HANG_S)
-    assert again.returncode == 0, stderr
+    stdout, stderr = again.stdout.read(), again.stderr.read()     # the rest, the iterator's read-ahead too
+    assert again.wait(timeout=NO_HANG_S) == 0, stderr
     assert lines[0].startswith("resumed: ") and "wrote %s" % out in stdout, "".join(lines) + stdout
 
     z = np.load(out)
@@ -116,7 +116,9 @@ def test_a_survey_recorded_resumed_after_the_laptop_died_mapped_and_pulled(surve
     assert p.returncode == 0, p.stderr
     y = np.load(pulled)
     assert np.array_equal(y["marks_s"], marks)
-    assert np.array_equal(y["t"], t), (sorted(set(y["t"]) ^ set(t)), np.isnan(z["codes"][-3:, 0]))
+    differ = sorted(set(y["t"]) ^ set(t))
+    assert not differ, (differ, [(x in t, x in y["t"]) for x in differ], t[-3:], np.isnan(z["codes"][-3:, 0]),
+                        p.stdout, stdout)
     assert np.abs(y["f_nT"] - z["f_nT"]).max() <= 0.005 + 1e-9     # the log's hundredths of a nT
     assert "4 of 4 lines marked" in p.stdout, p.stdout
 
