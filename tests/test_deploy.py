@@ -17,11 +17,12 @@ import sys
 import pytest
 
 from desktop.devicesim.virtual_board import VirtualBoard
-from desktop.firmware.deploy import NATIVE, STAGE, DeployError, MicroPythonDeploy, board_files, deploy_drive
+from desktop.firmware import deploy
+from desktop.firmware.deploy import NATIVE, REMOVE, STAGE, DeployError, MicroPythonDeploy, board_files, deploy_drive
 from desktop.firmware.files import DEVICE, REPO, root_files
 from desktop.firmware.interpreters import mpy_cross_exe
 from desktop.firmware.mpy import cross_version, decode_mpy, mpy_mismatch
-from desktop.firmware.natmod import natmod_for
+from desktop.firmware.natmod import natmod_for, natmod_path
 from tests.test_firmware_files import BUILTIN, OPTIONAL, _imports, _source
 
 MPREMOTE = [sys.executable, "-m", "mpremote"]
@@ -155,6 +156,50 @@ def test_deploy_then_redeploy_into_a_virtual_board(micropython, tmp_path):
         assert "copying %d files (.mpy" % len(mpy) in r.stdout
         assert "did not answer `version`" in one_line_failure(r)
         assert set(flash_tree(flash)) == mpy
+
+
+def test_a_deploy_without_the_native_module_removes_an_earlier_one(micropython, tmp_path, monkeypatch):
+    """A board whose arch has no build now (or a deploy with none) keeps no lib/fitsums.mpy of an
+    earlier deploy: one of another arch fails its import, one of the same would sum in place
+    of the pure Python deployed."""
+    flash = tmp_path / "flash"
+    (flash / "lib").mkdir(parents=True)
+    stale = natmod_path("armv6m")   # what a Pico's deploy left, where built; any bytes do here
+    (flash / NATIVE).write_bytes(open(stale, "rb").read() if stale else b"M\x06stale")
+    monkeypatch.setattr(deploy, "natmod_for", lambda mpy: None)
+    with VirtualBoard(flash, exe=micropython) as board:
+        done = MicroPythonDeploy(board.port, compiled=False).run()
+        assert "native sums" not in done
+        assert set(flash_tree(flash)) == {path for _, path in board_files("micropython", compiled=False)}
+        assert _sums_path(board.port) == "python"
+
+
+def test_a_swap_removes_what_the_stage_lists_and_puts_it_back_when_undone(tmp_path):
+    """on-board/swap.py: the paths in the stage's .fluxcal-remove go with the swap, and an undone
+    swap (lib/shared a file, so lib/shared/a.py cannot go there) brings them back."""
+    swap = deploy._swap_script()["swap"]
+    (tmp_path / "lib").mkdir()
+    (tmp_path / NATIVE).write_bytes(b"old native")
+    (tmp_path / "lib" / "app.py").write_text("old\n")
+
+    def stage(*files):
+        for rel in files:
+            (tmp_path / STAGE / rel).parent.mkdir(parents=True, exist_ok=True)
+            (tmp_path / STAGE / rel).write_text("new\n")
+        (tmp_path / STAGE / REMOVE).write_text(NATIVE + "\n")
+
+    (tmp_path / "lib" / "shared").write_text("not a folder\n")
+    stage("lib/app.py", "lib/shared/a.py")
+    before = flash_tree(tmp_path)
+    with pytest.raises(OSError):
+        swap(str(tmp_path))
+    assert {k: v for k, v in flash_tree(tmp_path).items() if not k.startswith(STAGE)} == {
+        k: v for k, v in before.items() if not k.startswith(STAGE)}
+    shutil.rmtree(tmp_path / STAGE)
+    stage("lib/app.py")
+    assert swap(str(tmp_path)) == 1
+    assert sorted(flash_tree(tmp_path)) == ["lib/app.py", "lib/shared"]
+    assert (tmp_path / "lib" / "app.py").read_text() == "new\n"
 
 
 def _sums_path(port):

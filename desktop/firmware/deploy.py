@@ -45,6 +45,7 @@ STEP_TIMEOUT_S = 300     # one mpremote step (a slow board's copy); a silent pty
 INFO_TIMEOUT_S = 15      # the first step: a board enters the raw REPL in seconds, mpremote gives up after 10 s
 MPY_DIR = "MPY"          # in a dry run, the temporary folder of the compiled files
 NATIVE = "lib/%s.mpy" % MODULE   # the native sums (desktop/firmware/natmod.py), where the board's arch has them
+REMOVE = ".fluxcal-remove"       # in the staging folder: what swap.py removes (the files no longer deployed)
 
 Board = collections.namedtuple("Board", "name mpy block free leftovers")
 
@@ -81,6 +82,7 @@ class MicroPythonDeploy:
         self.mpy_cross = mpy_cross
         self.files = board_files("micropython", compiled)
         self.image = MPY_DIR   # where the compiled files are: a temporary folder while run() runs
+        self.remove = []       # paths on the board a deploy removes (on-board/swap.py, REMOVE)
 
     # ****** the mpremote commands ******
     def _local(self, src, path):
@@ -94,6 +96,9 @@ class MicroPythonDeploy:
         self.files = [f for f in self.files if f[1] != NATIVE]
         if native is not None:
             self.files.append((native, NATIVE))
+        # an earlier deploy's native module goes: of another arch it fails its import, of a
+        # matching one it would sum in place of the pure Python deployed
+        self.remove = [] if native is not None else [NATIVE]
         return native is not None
 
     def info_command(self):
@@ -200,6 +205,11 @@ class MicroPythonDeploy:
             self._step(self.prepare_command(board.leftovers))
             for argv in self.copy_commands():
                 self._step(argv)
+            if self.remove:
+                listing = os.path.join(self.image, REMOVE)
+                with open(listing, "w") as fh:
+                    fh.write("".join(path + "\n" for path in self.remove))
+                self._step(mpremote(self.port, "fs", "cp", listing, ":%s/%s" % (STAGE, REMOVE)))
         except DeployError as exc:
             self._clean_up()
             raise DeployError("copying to the board failed (%s): nothing was replaced, the previous "

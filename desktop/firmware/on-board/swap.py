@@ -7,11 +7,14 @@
 # main.py). Only once every file is there does this run: each file it replaces goes into
 # .fluxcal-old/, the new one takes its place, and if any rename fails every rename done is
 # undone. Renames need no free space, so a full flash stops a deploy while it copies, with
-# the previous firmware untouched, never half way through the swap.
+# the previous firmware untouched, never half way through the swap. A file the new firmware
+# no longer has (a native module of another arch) is named in the stage's .fluxcal-remove, one
+# path a line: it goes into .fluxcal-old/ as a replaced file does, and comes back on an undo.
 import os
 
 NEW = ".fluxcal-new"
 OLD = ".fluxcal-old"
+REMOVE = ".fluxcal-remove"
 _DIR = 0x4000   # S_IFDIR in st_mode
 
 
@@ -77,18 +80,28 @@ def swap(root=""):
     def at(rel):
         return root + "/" + rel if root else rel
 
-    files = _files(at(NEW))
+    files = [rel for rel in _files(at(NEW)) if rel != REMOVE]
     if not files:
         raise OSError("nothing staged in " + at(NEW))
+    gone = []
+    if _mode(at(NEW + "/" + REMOVE)):
+        with open(at(NEW + "/" + REMOVE)) as fh:
+            gone = [line.strip() for line in fh.read().split("\n") if line.strip()]
     rmtree(at(OLD))
     done = []   # (from, to) of each rename, to undo them
+
+    def set_aside(old):
+        if _mode(at(old)):
+            _mkdirs(at(OLD + "/" + _parent(old)))
+            os.rename(at(old), at(OLD + "/" + old))
+            done.append((at(old), at(OLD + "/" + old)))
+
     try:
+        for old in gone:
+            set_aside(old)
         for rel in files:
             for old in _replaced(rel):
-                if _mode(at(old)):
-                    _mkdirs(at(OLD + "/" + _parent(old)))
-                    os.rename(at(old), at(OLD + "/" + old))
-                    done.append((at(old), at(OLD + "/" + old)))
+                set_aside(old)
             if _parent(rel):
                 _mkdirs(at(_parent(rel)))
             os.rename(at(NEW + "/" + rel), at(rel))
