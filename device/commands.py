@@ -167,15 +167,16 @@ def repl(app, args):
 
 
 def survey(app, args):
-    """survey start | stop | info | read OFFSET: a walked survey's marks and flash log (surveylog.py,
-    imported on the first use: a handheld that never surveys never loads it)."""
+    """survey start [MAX_BYTES] | stop | info | read OFFSET: a walked survey's marks and flash log
+    (surveylog.py, imported on the first use: a handheld that never surveys never loads it)."""
     import surveylog
     words = args.split()
     what = words[0] if words else "info"
     rec = app.recorder
-    if what == "start" and len(words) == 1:
+    if what == "start" and (len(words) == 1 or len(words) == 2 and words[1].isdigit()):
         _idle(app)
-        rec = surveylog.Recorder(app.board, app.proto, app.board.root, app.button)
+        most = int(words[1]) if len(words) == 2 else surveylog.LOG_BYTES
+        rec = surveylog.Recorder(app.board, app.proto, app.board.root, app.button, most)
         app.recorder = app.output.recorder = rec
         app.output.set_stream(app.output.stream)    # |B| per block from now, streamed or not
         return rec.status()
@@ -192,7 +193,7 @@ def survey(app, args):
         if rec is not None:
             rec.flush()
         return surveylog.read_chunk(app.board.root, int(words[1]))
-    raise ProtocolError(codes.BAD_ARGUMENT, "survey takes: start | stop | info | read OFFSET")
+    raise ProtocolError(codes.BAD_ARGUMENT, "survey takes: start [MAX_BYTES] | stop | info | read OFFSET")
 
 
 def help_(app, args):

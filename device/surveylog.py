@@ -1,6 +1,6 @@
 """Survey recording on the handheld: the button's line marks and an append-only log on the flash.
 
-    rec = Recorder(board, proto, root)   # `survey start` (commands.py) builds it: imported only then
+    rec = Recorder(board, proto, root, button, most)   # `survey start` (commands.py): imported only then
     rec.block(t, f)      # every output block while recording (survey.Output): |B| to the log
     rec.press(ev)        # the button while recording (app.py): a short press is a line mark
     rec.stop()           # `survey stop`: the log stays on the flash for a pull
@@ -16,8 +16,8 @@ Appended and flushed every FLUSH_EVERY records and at every mark: a power cut
 loses at most a second of |B| and no mark; a record cut short by it is dropped
 when read (the file's length is cut to whole records).
 
-Bounded: LOG_BYTES (27 min of 10 Hz blocks), less when the flash has less free
-beyond RESERVE_BYTES. When full the log stops and keeps what it has (the
+Bounded: LOG_BYTES (27 min of 10 Hz blocks) or what `survey start MAX_BYTES` asks,
+less when the flash has less free beyond RESERVE_BYTES. When full the log stops and keeps what it has (the
 survey's start is never overwritten: the laptop still gets the stream); the
 `survey` reply and one `survey` event say so.
 """
@@ -39,7 +39,7 @@ CHUNK = 256                 # bytes a `survey read` returns (512 hex digits, wel
 
 
 class Recorder:
-    def __init__(self, board, proto, root, button):
+    def __init__(self, board, proto, root, button, most=LOG_BYTES):
         self.board = board
         self.proto = proto
         self.button = button
@@ -56,7 +56,7 @@ class Recorder:
         except OSError:
             pass
         free = free_bytes(root)
-        self.limit = LOG_BYTES if free is None else min(LOG_BYTES, max(0, free - RESERVE_BYTES))
+        self.limit = most if free is None else min(most, max(0, free - RESERVE_BYTES))
         self.f = open(self.path, "wb")    # an OSError here refuses `survey start` (io_error)
         self.f.write(MAGIC)
         self.f.flush()
@@ -85,7 +85,9 @@ class Recorder:
     def block(self, t, f):
         """An output block (its ticks_ms, its mean |B| in nT) while recording."""
         self.records += 1
-        self._append(self.board.ticks_diff(t, self.t0), int(f * 100.0 + 0.5))
+        # whole nT and hundredths apart: f * 100 in a 32-bit float would step by 0.5 (0.005 nT)
+        whole = int(f)
+        self._append(self.board.ticks_diff(t, self.t0), whole * 100 + int((f - whole) * 100.0 + 0.5))
 
     def press(self, ev):
         """A short press marks a line's start or end (at the press, not the release); a long one
