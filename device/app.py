@@ -153,16 +153,24 @@ class App:
         self.led.update()
 
     def wait(self):
-        """Idle for _HOUSE_MS, counted in conversions.
+        """Idle for _HOUSE_MS: asleep where the DRDY handler is an interrupt, else counted in conversions.
 
-        idle() returns after every DRDY (the IRQ wakes the core), so the loop
-        counts DRDY periods instead of reading the clock. It runs once per
-        conversion (1000 times a second at the default rate), so a wake-up costs
-        one decrement and the HAL's idle() (machine.idle itself on MicroPython,
-        a poll of the DRDY pin on CircuitPython), nothing else. A quit request
+        On MicroPython (sleeps_with_irq) the pass sleeps in sleep_ms: machine.idle() also returns
+        at the rp2 port's 1 ms wake-up alarm and at USB interrupts, so a loop of idle() calls
+        woke the Python code some 3,300 times a second and ended passes early (155 passes a
+        second, not 50, on the emulated Pico).
+
+        Where idle() services DRDY itself (CircuitPython's poll of the pin, the simulator's
+        link) it returns after every DRDY, so the loop counts DRDY periods instead of reading
+        the clock: a wake-up costs one decrement and the HAL's idle(). A quit request
         (simulators) is seen by run() within _HOUSE_MS.
         """
         b = self.board
+        if b.sleeps_with_irq:
+            # the DRDY interrupt fills the ring while the core sleeps: one call, and the
+            # wake-ups inside it (every interrupt, 1000 DRDY a second) stay in C
+            b.sleep_ms(_HOUSE_MS)
+            return
         if self.supervisor.fault:   # no conversions to count: by the clock
             t0 = b.ticks_ms()
             while not b.quit_requested():

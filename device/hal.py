@@ -16,6 +16,10 @@ class Board:
     DATA_BAUD = 8000000   # RDATAC frame reads may run up to 20 MHz (tSCLK 50 ns) [DS §6.6]
     root = ""             # folder of cal.json, config.json and the logs ("" = the flash's root)
     name = "board"        # runtime name reported by `version`
+    # True when the DRDY handler runs while the core sleeps in sleep_ms (an interrupt, hard or
+    # scheduled): the main loop then sleeps between passes (app.App.wait). False where idle()
+    # itself services DRDY (a polling HAL, the simulator's link).
+    sleeps_with_irq = False
 
     # ****** SPI bus: two chips, one chip select each, mode 1 (CPOL 0, CPHA 1) ******
     def set_spi_rate(self, hz):

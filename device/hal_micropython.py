@@ -74,6 +74,8 @@ except AttributeError:  # a port without the emergency buffer (the unix port)
 
 
 class Board(hal.Board):
+    sleeps_with_irq = True   # Pin.irq runs the DRDY handler inside time.sleep_ms (hard or scheduled)
+
     def __init__(self, cfg, root="/"):
         P = machine.Pin
         self.root = root if root != "/" else ""
