@@ -60,34 +60,49 @@ class Screen:
             cx = self._cx
             cy = self._cy
             cz = self._cz
-            d = _bend(cx - self._px, cx - x, k[0])
-            e = _bend(cy - self._py, cy - y, k[1])
+            # how far c stands out from both neighbours on each axis (nT; 0 unless on the same
+            # side of both), the largest of the three; written out, no call per axis
+            a = cx - self._px
+            e = cx - x
+            d = (a if a < e else e) * k[0] if a > 0 and e > 0 else (
+                -(a if a > e else e) * k[0] if a < 0 and e < 0 else 0.0)
+            a = cy - self._py
+            e = cy - y
+            e = (a if a < e else e) * k[1] if a > 0 and e > 0 else (
+                -(a if a > e else e) * k[1] if a < 0 and e < 0 else 0.0)
             if e > d:
                 d = e
-            e = _bend(cz - self._pz, cz - z, k[2])
+            a = cz - self._pz
+            e = cz - z
+            e = (a if a < e else e) * k[2] if a > 0 and e > 0 else (
+                -(a if a > e else e) * k[2] if a < 0 and e < 0 else 0.0)
             if e > d:
                 d = e
-            # |v|^2 / |h| in nT: v from the outer neighbours, over two periods
-            vx = (x - self._px) * k[0]
-            vy = (y - self._py) * k[1]
-            vz = (z - self._pz) * k[2]
-            hx = cx * k[0]
-            hy = cy * k[1]
-            hz = cz * k[2]
-            h2 = hx * hx + hy * hy + hz * hz
-            bend = 0.5 * (vx * vx + vy * vy + vz * vz) / (h2 ** 0.5) if h2 > 0 else 0.0
             allow = TYPICAL * self._typ
-            if bend > allow:
-                allow = bend
+            # The bend |v|^2 / |h| only raises the allowance, and a rounded sum never falls as a
+            # term grows: a sample within spike_nt + TYPICAL * typical passes whatever the bend,
+            # so its ten float operations run only for the few that stand out that far.
             if d > self.spike_nt + allow:
-                self.spikes += 1
-                self._pending = -1.0   # its bend involved this spike
-                # c is dropped; p stays p (the next judgement spans two periods, a little looser)
-                self._cx = x
-                self._cy = y
-                self._cz = z
-                self._ct = t
-                return False
+                # |v|^2 / |h| in nT: v from the outer neighbours, over two periods
+                vx = (x - self._px) * k[0]
+                vy = (y - self._py) * k[1]
+                vz = (z - self._pz) * k[2]
+                hx = cx * k[0]
+                hy = cy * k[1]
+                hz = cz * k[2]
+                h2 = hx * hx + hy * hy + hz * hz
+                bend = 0.5 * (vx * vx + vy * vy + vz * vz) / (h2 ** 0.5) if h2 > 0 else 0.0
+                if bend > allow:
+                    allow = bend
+                if d > self.spike_nt + allow:
+                    self.spikes += 1
+                    self._pending = -1.0   # its bend involved this spike
+                    # c is dropped; p stays p (the next judgement spans two periods, a little looser)
+                    self._cx = x
+                    self._cy = y
+                    self._cz = z
+                    self._ct = t
+                    return False
             # the typical bend of the accepted stream: |2c - p - n| / 2, largest axis
             e = cx + cx - self._px - x
             e = (e if e > 0 else -e) * k[0]
@@ -120,11 +135,3 @@ class Screen:
         self._n = n + 1 if n < 2 else 2
         return good
 
-
-def _bend(a, b, k):
-    """How far a sample stands out from both neighbours on one axis (nT; 0 unless same side)."""
-    if a > 0 and b > 0:
-        return (a if a < b else b) * k
-    if a < 0 and b < 0:
-        return -(a if a > b else b) * k
-    return 0.0
