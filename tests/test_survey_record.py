@@ -9,11 +9,16 @@ firmware (`--runtime cpython`), in real time. No wall-clock limit is asserted: t
 deadlines for a hang only.
 """
 
+import contextlib
+import functools
+import json
 import os
 import pty
 import signal
 import subprocess
 import sys
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -34,11 +39,11 @@ def fluxcal(*args, env=None, **kw):
                           timeout=NO_HANG_S, **kw)
 
 
-@pytest.fixture
-def surveyor(runtime_env):
+@contextlib.contextmanager
+def _emulate(env, grid=GRID):
     """A virtual handheld whose operator waits at the first line's start until told `w`."""
-    emu = subprocess.Popen([FLUXCAL, "emulate", "--runtime", "cpython", "--survey", GRID, "--line-spacing",
-                            str(SPACING), "--zigzag", "--site", "3"], cwd=ROOT, env=runtime_env,
+    emu = subprocess.Popen([FLUXCAL, "emulate", "--runtime", "cpython", "--survey", grid, "--line-spacing",
+                            str(SPACING), "--zigzag", "--site", "3"], cwd=ROOT, env=env,
                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         first = emu.stdout.readline()
@@ -48,6 +53,12 @@ def surveyor(runtime_env):
     finally:
         emu.terminate()
         emu.wait(timeout=60)
+
+
+@pytest.fixture
+def surveyor(runtime_env):
+    with _emulate(runtime_env) as emulator:
+        yield emulator
 
 
 def _survey(port, *extra, env):
@@ -146,3 +157,58 @@ def test_without_a_handheld_a_wrong_port_or_the_gps_extra_the_survey_says_so_in_
                         "--line-spacing", "1", "-o", str(out)], capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert one_line_error(r) == "fluxcal: survey needs pynmea2, which is not installed: pip install 'fluxcal[gps]'"
     assert not out.exists()
+
+
+def _nmea(body):
+    """A sentence with its checksum (the XOR of the characters between $ and *)."""
+    return "$%s*%02X\r\n" % (body, functools.reduce(lambda a, c: a ^ ord(c), body, 0))
+
+
+FIXES = [("4807.038", "N", "01131.000", "E", 1), ("4807.040", "N", "01131.004", "E", 4)]
+
+
+def _gps(fd, stop):
+    """A receiver at 5 Hz: the GGA fixes in turn, a sentence whose checksum is wrong, one with no fix."""
+    k = 0
+    while not stop.is_set():
+        lat, ns, lon, ew, q = FIXES[k % 2]
+        out = _nmea("GPGGA,1235%02d,%s,%s,%s,%s,%d,08,0.9,545.4,M,46.9,M,," % (k % 60, lat, ns, lon, ew, q))
+        out += "$GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,*48\r\n"
+        out += _nmea("GPGGA,123519,,,,,0,00,,,M,,M,,")
+        os.write(fd, out.encode())
+        k += 1
+        time.sleep(0.2)
+
+
+def test_gps_fixes_are_kept_on_the_boards_clock(runtime_env, tmp_path):
+    pytest.importorskip("pynmea2")
+    master, slave = pty.openpty()
+    stop = threading.Event()
+    feeder = threading.Thread(target=_gps, args=(master, stop), daemon=True)
+    feeder.start()
+    try:
+        with _emulate(runtime_env, grid="1x2") as (emu, port):      # one line of 2 m
+            out = str(tmp_path / "gps.npz")
+            rec = _survey(port, "--grid", "1x2", "--line-spacing", SPACING, "--gps", os.ttyname(slave), "-o", out,
+                          env=runtime_env)
+            _read_until(rec, "recording")
+            emu.stdin.write("w")
+            emu.stdin.flush()
+            _read_until(rec, "survey complete")
+            assert rec.wait(timeout=NO_HANG_S) == 0, rec.stderr.read()
+    finally:
+        stop.set()
+        feeder.join()
+        os.close(master)
+        os.close(slave)
+    z = np.load(out)
+    lat = np.array([48 + 7.038 / 60, 48 + 7.040 / 60])
+    lon = np.array([11 + 31.000 / 60, 11 + 31.004 / 60])
+    assert set(z["gps_quality"]) == {1.0, 4.0} and np.all(np.isin(z["gps_lat"], lat)) and \
+        np.all(np.isin(z["gps_lon"], lon))
+    # 5 a second while the survey ran, each at its arrival on the board's clock: within the
+    # readings' span, give or take the line's latency (a pass, the pty) and the stream's 0.1 s blocks
+    span = z["t"][-1] - z["t"][0]
+    assert len(z["gps_t"]) >= 4 * span and z["gps_t"].min() >= z["t"][0] - 1.0 and z["gps_t"].max() <= z["t"][-1] + 1.0
+    meta = json.loads(str(z["config"]))["gps"]
+    assert meta["fixes"] > 0 and abs(meta["bad_sentences"] - meta["fixes"]) <= 1   # a bad checksum per fix sent

@@ -122,6 +122,8 @@ def run(args):
             rec = _open_recording(args, grid, dev)
             if args.pull:
                 return _pull(dev, info, rec, args.output)
+            if gps is not None:
+                gps.start()
             return _record(dev, info, rec, args, gps)
     finally:
         if gps is not None:
@@ -231,6 +233,7 @@ def _save(rec, path, gps, arrivals):
         import numpy as np
         offset = float(np.median([b - a for a, b in arrivals[-200:]]))    # board s - laptop s
         rec.gps = [(t + offset, lat, lon, q) for t, lat, lon, q in gps.fixes()]
+        rec.meta["gps"] = {"port": gps.port, "fixes": len(rec.gps), "bad_sentences": gps.bad}
     try:
         rec.save(path)
     except FormatError as exc:

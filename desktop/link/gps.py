@@ -59,16 +59,16 @@ class GpsReader:
             return
         try:
             msg = self._nmea.parse(text, check=True)
-        except self._nmea.ParseError:
-            self.bad += 1
-            return
-        if getattr(msg, "sentence_type", "") == "GGA" and msg.latitude is not None and msg.gps_qual is not None:
-            try:
-                quality = int(msg.gps_qual)
-            except (TypeError, ValueError):
+            if getattr(msg, "sentence_type", "") != "GGA":
                 return
-            if quality > 0:
-                self._fixes.append((now, float(msg.latitude), float(msg.longitude), quality))
+            quality = int(msg.gps_qual or 0)
+            if quality <= 0:
+                return          # no fix: nothing to place a reading by
+            fix = (now, float(msg.latitude), float(msg.longitude), quality)
+        except (self._nmea.ParseError, ValueError, TypeError, AttributeError):
+            self.bad += 1       # a checksum, a cut or garbled line
+            return
+        self._fixes.append(fix)
 
     def fixes(self):
         return list(self._fixes)
