@@ -17,6 +17,7 @@ FRAME = 9     # bytes per chip per conversion
 class LoopBoard:
     REG_BAUD = 1000000
     DATA_BAUD = 8000000
+    sleeps_with_irq = False   # idle() runs the handler itself: App.wait counts conversions, as in the simulator
 
     def __init__(self, src, root, rate):
         self.nf = src.seek(0, 2) // (2 * FRAME)
