@@ -33,7 +33,7 @@ from shared.codes import AUTO, FULL, QUICK
 
 SOLVE = "solve"   # board.busy key: a solve, charged as simulated time by the simulated board
 KINDS = (AUTO, FULL, QUICK)   # start-cal's (the session's states and kinds: shared/codes.py)
-# A session's modules (session.py, the gates, the fit and its solver: ~44 KB of bytecode on a
+# A session's modules (session.py, the gates, the fit and its solver: about 42 KB of heap on a
 # 32-bit board running .mpy from RAM) are imported when a session starts and dropped once it
 # ends, so that idle and survey run without them (docs/firmware.md, the heap). Not on CPython:
 # there the simulated device shares sys.modules with the desktop's own imports of shared/.

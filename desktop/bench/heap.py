@@ -1,6 +1,7 @@
 """The heap a board would show: the firmware's gc.mem_alloc() on 32-bit MicroPython, and the smallest heap.
 
-    python -m desktop.bench.heap      # prints a markdown table (a few seconds)
+    python -m desktop.bench.heap             # prints a markdown table (a minute or two)
+    python -m desktop.bench.heap --modules   # the heap each firmware module's import adds (32-bit)
 
 What: micropython-scripts/firmware_heap.py boots the firmware (.mpy image, as a board runs it)
 on a loop-back board reading real frames of a simulated hand rotation from a file, and takes
@@ -38,6 +39,16 @@ ROWS = [("micropython-reprc", "32-bit", ((190, "Pico"), (100, "ESP32 without PSR
 # where firmware_heap.py can run out of memory, in order (phase: words for the table)
 PHASES = {"start": "starting the script", "import": "importing", "boot": "booting", "calibrate": "calibrating",
           "finish": "finishing", "survey": "in survey"}
+# --modules: the firmware's modules by when they are imported, each group in an order where a module
+# comes after what it imports (shared.calibration brings shared.response)
+GROUPS = [("at boot (import app)", ["shared.codes", "store", "protocol", "config", "ads1292", "acquisition", "led",
+                                    "health", "bootguard", "button", "screen", "survey", "shared.calibration",
+                                    "commands", "calibration_flow", "app"]),
+          ("when a session starts, dropped when it ends", [
+              "shared.errors", "shared.moments", "shared.linalg", "shared.quadric", "shared.iteration", "shared.prior",
+              "shared.predicted", "shared.result", "shared.start", "shared.solver", "shared.fit", "shared.coverage",
+              "gates", "acceptance", "session"]),
+          ("when first needed (the finish, `survey start`)", ["shared.quick", "shared.tempco", "surveylog"])]
 
 
 def run_heap(exe, kb, tmp, scale, track):
@@ -100,9 +111,34 @@ def row(name, word, kb, who, runs, least, notes):
         name, word, kb, who, cells[0], cells[1], cells[2], state, least)
 
 
+def modules(exe, tmp, lib):
+    """The --modules table: per module, its .mpy's size and the heap its import adds."""
+    names = [n for _, group in GROUPS for n in group]
+    r = subprocess.run([exe, "-X", "heapsize=1024K", "-m", "module_heap"] + names, capture_output=True, text=True,
+                       timeout=600, cwd=tmp, env=dict(os.environ, MICROPYPATH="lib"))
+    if r.returncode:
+        raise RuntimeError("module_heap.py: %s" % (r.stderr + r.stdout)[-2000:])
+    added = dict(zip(names, (int(v) for v in r.stdout.split())))
+    print("## The heap each firmware module's import adds (micropython-reprc, 32-bit, .mpy image)\n")
+    print("gc.mem_alloc() after gc.collect(), before and after each import in this order (a module's figure holds"
+          " what it imports that no module above did, and the interned names' chunk when one was added).\n")
+    print("| imported | module | .mpy | heap added |")
+    print("|---|---|---|---|")
+    for when, group in GROUPS:
+        for name in group:
+            size = os.path.getsize(os.path.join(lib, name.replace(".", "/") + ".mpy"))
+            print("| %s | %s | %d B | %d B |" % (when, name, size, added[name]))
+        print("| %s | **all** | %d B | **%d B** |" % (
+            when, sum(os.path.getsize(os.path.join(lib, n.replace(".", "/") + ".mpy")) for n in group),
+            sum(added[n] for n in group)))
+    print("\n(shared.calibration's figure holds shared.response, which it imports; command: python -m"
+          " desktop.bench.heap --modules)")
+    return 0
+
+
 def main(argv=None):
-    if argv:
-        print("usage: python -m desktop.bench.heap  (no options)")
+    if argv not in (None, [], ["--modules"]):
+        print("usage: python -m desktop.bench.heap [--modules]")
         return 2
     t0 = time.perf_counter()
     lines, notes, harness = [], [], []
@@ -112,8 +148,14 @@ def main(argv=None):
         except FileNotFoundError as e:   # mpy-cross
             print("bench.heap: %s" % e)
             return 1
-        for name in ("firmware_heap.py", "loopboard.py"):   # on sys.path as "" (the cwd), like a board's
+        for name in ("firmware_heap.py", "loopboard.py", "module_heap.py"):   # on sys.path as "" (the cwd)
             shutil.copy(os.path.join(SCRIPTS, name), tmp)
+        if argv:
+            exe = interpreter(ROWS[0][0])
+            if exe is None:
+                print("bench.heap: no %s (python -m desktop.firmware.interpreters build)" % ROWS[0][0])
+                return 1
+            return modules(exe, tmp, _lib)
         for name, word, heaps in ROWS:
             exe = interpreter(name)
             if exe is None:
@@ -134,6 +176,12 @@ def main(argv=None):
           " after %d s more with stream corrected and logging on. Peaks: the largest figure after any main-loop"
           " pass (the solve inside finish is not seen). Of each figure, the interpreter's start-up and the"
           " harness (script, loop-back board, open frame file) hold %s.\n" % (SECONDS, SECONDS, ", ".join(harness)))
+    print_table(lines, notes, "python -m desktop.bench.heap, %.0f s" % (time.perf_counter() - t0))
+    return 0
+
+
+def print_table(lines, notes, command):
+    """The table of row() lines, the notes and the command (heap.py's and heap_pico.py's)."""
     print("| interpreter | word | heap given | after boot | calibrating | survey (stream + log) | calibration state |"
           " smallest heap that boots, calibrates and surveys |")
     print("|---|---|---|---|---|---|---|---|")
@@ -141,8 +189,7 @@ def main(argv=None):
         print(line)
     for line in notes:
         print("\nNOTE: " + line)
-    print("\n(command: python -m desktop.bench.heap, %.0f s)" % (time.perf_counter() - t0))
-    return 0
+    print("\n(command: %s)" % command)
 
 
 if __name__ == "__main__":
