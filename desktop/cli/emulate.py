@@ -12,6 +12,8 @@ clutter, diurnal drift: desktop/sim/site.py) who waits at the first line's start
 and the end of every line (desktop/devicesim/walker.py): `fluxcal survey` records it.
 """
 
+import os
+
 HELP = "a virtual handheld on a pseudo-terminal: the firmware on the simulated fluxgate, in real time"
 
 OPERATOR = {"follow": "follow", "turn": "hand", "hold": "hold"}     # --operator -> the operator's action
@@ -136,7 +138,7 @@ def run(args):
                 hh.release_port()
         print("ready: %s" % ("an empty board, its REPL on the port" if args.bare else "the firmware runs"),
               flush=True)
-        if sys.stdin.isatty():
+        if keys.from_terminal():
             first = "w walk the survey" if survey else "r turn by hand, h hold, s spin, f follow the LED"
             print("keys: %s, p press, l long press, c power cycle, q quit" % first, flush=True)
         keys.start()
@@ -240,29 +242,49 @@ class _Keys:
         self.hh = hh
         self.done = done
         self._old = None
+        self._fd = None
+
+    @staticmethod
+    def _stdin():
+        """Standard input's file descriptor, or None when there is none: started with it closed
+        (Python then sets sys.stdin to None) or closed since."""
+        import sys
+        if sys.stdin is None or sys.stdin.closed:
+            return None
+        try:
+            return sys.stdin.fileno()
+        except (OSError, ValueError):
+            return None
+
+    def from_terminal(self):
+        fd = self._stdin()
+        return fd is not None and os.isatty(fd)
 
     def start(self):
-        import sys
         import threading
-        if sys.stdin is None or sys.stdin.closed:
+        fd = self._stdin()
+        if fd is None:
             return
-        if sys.stdin.isatty():
+        if os.isatty(fd):
             import termios
             import tty
-            fd = sys.stdin.fileno()
             self._old = termios.tcgetattr(fd)
             tty.setcbreak(fd)
+        self._fd = fd
         threading.Thread(target=self._read, daemon=True).start()
 
     def _read(self):
-        import os
         import select
-        import sys
-        fd = sys.stdin.fileno()
+        fd = self._fd
         while not self.done.is_set():
-            if not select.select([fd], [], [], 0.1)[0]:
-                continue
-            data = os.read(fd, 64).decode(errors="replace")
+            try:
+                if not select.select([fd], [], [], 0.1)[0]:
+                    continue
+                data = os.read(fd, 64).decode(errors="replace")
+            except (OSError, ValueError):
+                # the input went away under the reader (a terminal hung up, the descriptor closed):
+                # as at its end, the operator carries on as it was
+                return
             if not data:
                 return          # end of input: the operator carries on as it was
             for key in data:
@@ -272,10 +294,21 @@ class _Keys:
                     try:
                         self.hh.act(KEYS[key])
                     except ValueError as exc:
-                        print("(%s)" % exc, flush=True)
+                        _say("(%s)" % exc)
 
     def stop(self):
-        import sys
         if self._old is not None:
             import termios
-            termios.tcsetattr(sys.stdin.fileno(), termios.TCSADRAIN, self._old)
+            try:
+                termios.tcsetattr(self._fd, termios.TCSADRAIN, self._old)
+            except (termios.error, OSError):
+                pass        # the terminal is gone: there is no mode left to restore
+
+
+def _say(line):
+    """A line from the key reader's thread: a reader of standard output that went away is not
+    the thread's to report (main's BrokenPipeError handler says nothing either)."""
+    try:
+        print(line, flush=True)
+    except (BrokenPipeError, ValueError):
+        pass
