@@ -21,6 +21,7 @@ A session ends early with reason "fault" (health.py) or "internal_error" (bootgu
 """
 
 import gc
+import math
 import sys
 
 import led as ledp
@@ -31,6 +32,7 @@ from shared import codes
 from shared.calibration import Calibration
 from shared.codes import AUTO, FULL, QUICK
 
+KEEP_CAL = "keep-cal"
 SOLVE = "solve"   # board.busy key: a solve, charged as simulated time by the simulated board
 KINDS = (AUTO, FULL, QUICK)   # start-cal's (the session's states and kinds: shared/codes.py)
 # A session's modules (session.py, the gates, the fit and its solver: about 42 KB of heap on a
@@ -69,6 +71,7 @@ class CalibrationFlow:
         self.cal = None
         self.cal_source = None
         self.cal_problem = None
+        self.held = None          # a full calibration predicted worse than the one in force (keep-cal)
         self._diff = board.ticks_diff
         self._resident = None     # sys.modules before the session in progress imported its own
         self._sums_path = sums_path()
@@ -137,6 +140,7 @@ class CalibrationFlow:
         period_ms = 1000.0 * c["decim"] / c["rate"]
         # the previous calibration as it stands now (its temperature coefficients applied)
         prior = None if kind == FULL else self.output.cal_now
+        self.held = None   # a calibration refused as worse is kept until the next session
         if self._resident is None:
             self._resident = set(sys.modules)
         gc.collect()   # the session's modules and buffers want a few contiguous KB of a small heap
@@ -175,20 +179,63 @@ class CalibrationFlow:
             cal.meta["rate"] = self.cfg["rate"]
             cal.meta["scale"] = list(self.scale)
             cal, result["tempco"] = self._with_tempco(cal)
-            saved, err = self.install(cal)
-            result["saved"] = saved
-            if err:
-                result["save_error"] = err
             d = cal.diagnostics
             for k in ("rms", "predicted_error", "observability"):
                 result[k] = json_number(d.get(k), 4)
             result["field"] = json_number(cal.field, 2)
             result["kind"] = cal.meta.get("kind")
-            self.led.flash(ledp.DONE if result["kind"] == FULL else ledp.DONE_QUICK)
+            held = self._worse_than_current(cal, s)
+            if held is not None:
+                # the one in force stays; the new one waits for keep-cal (until the next session or boot)
+                self.held = cal
+                result["state"] = codes.FAILED
+                result["reason"] = codes.WORSE_THAN_CURRENT
+                result["msg"] = ("predicted full-sphere error %.3f nT is not below the %.3f nT of the calibration in "
+                                 "force on these samples: it stays" % held)
+                result["current_error"] = json_number(held[1], 4)
+                result["in_force"] = False
+                self.led.flash(ledp.KEPT_PREVIOUS)
+            else:
+                saved, err = self.install(cal)
+                result["saved"] = saved
+                if err:
+                    result["save_error"] = err
+                result["in_force"] = True
+                self.led.flash(ledp.DONE if result["kind"] == FULL else ledp.DONE_QUICK)
         self.last_result = result
         self.proto.event("cal", result)
         self.steady_led()
         return result
+
+    def _worse_than_current(self, new, s):
+        """(new, in force) predicted errors, nT, when a full calibration is predicted no better than
+        the calibration in force is on today's samples; else None.
+
+        On the session's last samples the one in force misfits by `stale`, the new one by `fresh`:
+        stale^2 - fresh^2 is the mean square of their difference, the errors of both (e_prev^2 +
+        e_new^2) and a drift D^2 since the one in force was made. Only a drift beyond three
+        standard errors of that difference (2 fresh sqrt((stale^2 - fresh^2) / n)) counts: then the
+        one in force is in error by sqrt(e_prev^2 + D^2) now, and a drifted sensor's new calibration
+        replaces it even with fewer samples. A quick one was compared by the fit itself
+        (not_better); one in force without a predicted error (set-cal) is no bar.
+        """
+        cur = self.output.cal_now    # as the survey applies it: its temperature coefficients in
+        if self.cal is None or cur is None or new.meta.get("kind", FULL) != FULL:
+            return None
+        pe = new.diagnostics.get("predicted_error")
+        old = self.cal.diagnostics.get("predicted_error")
+        if not isinstance(pe, (int, float)) or not isinstance(old, (int, float)):
+            return None
+        stale, n = s.recent_rms(cur.scaled_input(s.window))
+        fresh, _ = s.recent_rms(new.scaled_input(s.window))
+        if n:
+            diff = stale * stale - fresh * fresh
+            drift = diff - pe * pe - old * old
+            if drift > 0.0 and drift > 6.0 * fresh * math.sqrt(diff / n):
+                old = math.sqrt(old * old + drift)
+        if not pe >= old:
+            return None
+        return pe, old
 
     def _with_tempco(self, new):
         """new with temperature coefficients: fitted against the calibration it replaces when
@@ -268,13 +315,16 @@ class CalibrationFlow:
             self.led.set(ledp.SURVEY if self.cal is not None else ledp.UNCALIBRATED)
 
     # ****** the calibration in force ******
-    def install(self, cal):
-        """Make cal the active calibration and store it; (saved, error)."""
+    def install(self, cal, by=None):
+        """Make cal the active calibration and store it; (saved, error). by: the command that
+        replaced the calibration in force (set-cal, keep-cal), said in the last result."""
         self.guard.leave()
         self.cal = cal
         self.output.use(cal)
         self.cal_source = "new"
         self.cal_problem = None
+        if by is not None:
+            self._replaced(by, by == KEEP_CAL)
         self.steady_led()
         try:
             store.save(self.board.root, "cal", cal.to_dict())
@@ -284,11 +334,29 @@ class CalibrationFlow:
         except (OSError, ValueError) as e:   # ValueError: a store older than its OSError contract
             return False, str(e) or e.__class__.__name__
 
+    def keep(self):
+        """keep-cal: the calibration last refused as worse than the one in force, put in force; (saved, error)."""
+        cal = self.held
+        if cal is None:
+            raise ProtocolError(codes.NO_CALIBRATION, "no calibration refused as worse since the last session")
+        self.held = None
+        return self.install(cal, KEEP_CAL)
+
+    def _replaced(self, by, in_force):
+        # status's last_cal says whether its calibration is the one in force now, and what changed it
+        last = self.last_result
+        if last is not None and "in_force" in last:
+            last["in_force"] = in_force
+            last["since"] = by
+        if by != KEEP_CAL:
+            self.held = None
+
     def clear(self):
         """Forget the calibration, on the flash first: OSError (read-only, ...) leaves it in force,
         so what the next boot loads is what the device says now."""
         store.remove(self.board.root, "cal")
         self.guard.leave()
+        self._replaced("clear-cal", False)
         self.cal = None
         self.output.use(None)
         self.cal_source = None

@@ -71,7 +71,16 @@ def set_cal(app, args):
     if problem:
         raise ProtocolError(problem[0], problem[1])
     cal.meta["source"] = "set-cal"
-    saved, err = app.flow.install(cal)
+    saved, err = app.flow.install(cal, "set-cal")
+    if not saved:
+        raise ProtocolError(codes.IO_ERROR, "calibration active but not saved: %s" % err)
+    return {"saved": True}
+
+
+def keep_cal(app, args):
+    # the full calibration the last session refused as worse than the one in force, put in force
+    _idle(app)
+    saved, err = app.flow.keep()
     if not saved:
         raise ProtocolError(codes.IO_ERROR, "calibration active but not saved: %s" % err)
     return {"saved": True}
@@ -207,6 +216,7 @@ TABLE = {
     "status": status,
     "get-cal": get_cal,
     "set-cal": set_cal,
+    "keep-cal": keep_cal,
     "clear-cal": clear_cal,
     "start-cal": start_cal,
     "finish-cal": finish_cal,

@@ -14,6 +14,9 @@ DONE = (2000, 0)                      # solid 2 s: calibration accepted
 DONE_QUICK = (0, 300, 600, 200, 600, 200, 600, 400)
 SLOW_DOWN = (900, 100)                # mostly on: turning faster than the sensor's bandwidth allows
 FAILED = (100, 100, 100, 100, 100, 100, 800, 400)  # triple blink, twice
+# one long pulse, then a triple blink: a new calibration predicted worse than the one in force,
+# which stays (off first, so the pulse never merges with the pattern before it)
+KEPT_PREVIOUS = (0, 300, 1200, 300, 100, 100, 100, 100, 100, 400)
 FAULT = (50, 50)                      # ADC fault: not answering, DRDY stuck, bad frames
 SAFE = (100, 100, 100, 1700)          # double blip: safe mode, the stored calibration not applied
 

@@ -141,6 +141,23 @@ class Session:
         rate = (st / (2 * pairs) - m * tm) / math.sqrt(var * tvar) if tvar > 0.0 else None
         return (s1 / pairs - m * m) / var, pairs, rate
 
+    def recent_rms(self, cal):
+        """(RMS of |h_c| - F in nT, n) over the last n <= HIST accepted samples under cal (in sum
+        units): a calibration's misfit on today's samples, the new one's and the one in force's
+        alike (calibration_flow.py compares them); (None, 0) without any."""
+        g = self.gates
+        h = g.hist
+        n = g.hist_n
+        if not n:
+            return None, 0
+        first = (g.hist_i - n) % HIST
+        ss = 0.0
+        for k in range(n):
+            j = ((first + k) % HIST) * 5
+            r = cal.magnitude(h[j], h[j + 1], h[j + 2]) - cal.field
+            ss += r * r
+        return math.sqrt(ss / n), n
+
     def add_temperature(self, celsius):
         self.temp_sum += celsius
         self.temp_n += 1

@@ -51,7 +51,7 @@ BAD_JSON = "bad_json"               # set-cal: the argument is not JSON
 UNKNOWN_KEY = "unknown_key"         # config get/set: no such key
 BUSY = "busy"                       # a calibration is running (fluxcal deploy waits on it)
 FAULT = "fault"                     # start-cal during an ADC fault (also a session's reason)
-NO_CALIBRATION = "no_calibration"   # start-cal quick without a calibration in force
+NO_CALIBRATION = "no_calibration"   # start-cal quick without a calibration in force; keep-cal with none held
 NOT_CALIBRATING = "not_calibrating"  # finish-cal / cancel-cal with no session
 NO_COVERAGE = "no_coverage"         # coverage before any calibration since boot
 
@@ -64,6 +64,9 @@ DEGENERATE_COVERAGE = "degenerate_coverage"   # the samples leave the ellipsoid 
 NOT_ELLIPSOID = "not_ellipsoid"
 NON_FINITE = "non_finite"
 NOT_BETTER = "not_better"           # a quick re-calibration no better than the one in force
+# The flow (device/calibration_flow.py): a full calibration predicted worse than the one in force,
+# which stays; keep-cal puts the new one in force
+WORSE_THAN_CURRENT = "worse_than_current"
 # The session (device/session.py):
 CLIPPED = "clipped"                 # samples at the ADC's full scale
 TOO_FAST = "too_fast"               # most samples turned faster than the rate gate

@@ -176,27 +176,26 @@ class _Args:
     replace = False
 
 
-def test_a_worse_full_calibration_is_not_kept_without_a_word(capsys):
+def test_a_calibration_held_back_as_worse_is_kept_only_when_asked(capsys):
+    """The firmware held the new one back (worse_than_current): without --replace the command ends
+    in one line naming both figures and the way to keep it; with it, keep-cal puts it in force."""
     from desktop.cli._errors import CommandError
-    from desktop.cli.calibrate import _keep_or_restore, worse_than_previous
+    from desktop.cli.calibrate import _keep_or_not
 
-    previous = {"matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "offset": [0, 0, 0], "field": 3.3e6,
-                "diagnostics": {"predicted_error": 0.05}}
-    worse = {"state": "done", "kind": "full", "predicted_error": 0.4}
-    assert worse_than_previous(worse, previous) == (0.4, 0.05)
-    assert worse_than_previous(dict(worse, predicted_error=0.04), previous) is None
-    assert worse_than_previous(dict(worse, kind="quick"), previous) is None     # the firmware compared it
-    assert worse_than_previous(worse, None) is None
+    worse = {"state": "failed", "reason": "worse_than_current", "kind": "full", "predicted_error": 0.4,
+             "current_error": 0.05, "in_force": False}
     dev = _FakeDevice()
     with pytest.raises(CommandError) as err:
-        _keep_or_restore(dev, worse, previous, _Args())
-    assert "0.400 nT is worse than the 0.050 nT" in str(err.value) and "--replace" in str(err.value)
-    assert dev.asked == ["set-cal " + json.dumps(previous)]
+        _keep_or_not(dev, worse, _Args())
+    said = str(err.value)
+    assert "0.400 nT is not below the 0.050 nT" in said and "--replace" in said and "\n" not in said
+    assert dev.asked == []
     args = _Args()
     args.replace = True
     dev = _FakeDevice()
-    _keep_or_restore(dev, worse, previous, args)
-    assert dev.asked == [] and "kept (--replace)" in capsys.readouterr().out
+    kept = _keep_or_not(dev, worse, args)
+    assert dev.asked == ["keep-cal"] and "kept (--replace)" in capsys.readouterr().out
+    assert kept["state"] == "done" and kept["in_force"] is True
 
 
 def test_a_full_coverage_png_shows_its_cells():

@@ -9,13 +9,13 @@ with `hold`, so the firmware waits for the operator's key even once it is ready
 (at max_cal_s it ends any session); --auto waits for the firmware to finish by
 itself, sending finish-cal itself at `ready` when the device's auto_finish is
 off. Prints the result, its figures and the calibration it replaced. A full
-calibration whose predicted error is worse than the one it replaced is not
-kept without a word: the operator confirms it (a terminal), or --replace keeps
-it; otherwise the previous one is sent back (`set-cal`) and the command exits 1.
-A failed or cancelled calibration leaves the previous one in force and exits 1.
+calibration predicted no better than the one in force is not put in force by the
+firmware (reason `worse_than_current`, the button's path alike): the operator
+confirms it (a terminal), or --replace keeps it (`keep-cal`); otherwise the one in
+force stays and the command exits 1 saying so in one line. A failed or cancelled
+calibration leaves the previous one in force and exits 1.
 """
 
-import json
 import sys
 import time
 
@@ -72,6 +72,8 @@ def run(args):
             _print_map(cov, cfg, view)
         if result.get("state") == codes.CANCELLED:
             raise CommandError("calibration cancelled; the previous calibration stays in force")
+        if result.get("reason") == codes.WORSE_THAN_CURRENT:
+            result = _keep_or_not(dev, result, args)
         if result.get("state") != codes.DONE:
             raise CommandError("calibration failed (%s): %s; the previous calibration stays in force"
                                % (result.get("reason"), result.get("msg")))
@@ -80,7 +82,6 @@ def run(args):
                                                 "in force but NOT saved: %s" % result.get("save_error"),
                                                 KIND_WORDS.get(result.get("kind"),
                                                                "%s calibration" % result.get("kind", codes.FULL))))
-        _keep_or_restore(dev, result, previous, args)
         verify = _verify(dev, args.verify, cfg) if args.verify > 0 else None
     if verify:
         print("verification: %d samples of corrected |B| over %.1f s: peak-to-peak %.3f nT, std %.3f nT" % verify)
@@ -116,41 +117,22 @@ def _print_map(cov, cfg, view):
     print(guidance(counts, edge))
 
 
-def worse_than_previous(result, previous):
-    """(new, previous) predicted errors, nT, when a full calibration's is worse than the one it
-    replaced; else None. A quick one was already compared with it by the firmware (not_better)."""
-    if previous is None or result.get("kind") != codes.FULL:
-        return None
-    new = result.get("predicted_error")
-    old = (previous.get("diagnostics") or {}).get("predicted_error")
-    if new is None or old is None or not new > old:
-        return None
-    return new, old
-
-
-def _keep_or_restore(dev, result, previous, args):
-    """A worse full calibration stays only with --replace or the operator's yes; else the previous is sent back."""
-    from desktop.link import DeviceError
-
-    worse = worse_than_previous(result, previous)
-    if worse is None:
-        return
-    said = ("the new calibration's predicted error %.3f nT is worse than the %.3f nT of the one it replaced"
-            % worse)
+def _keep_or_not(dev, result, args):
+    """A calibration the firmware held back as no better than the one in force: put in force
+    (keep-cal) with --replace or the operator's yes, the result then as a done one; else CommandError."""
+    said = ("the new calibration's predicted full-sphere error %.3f nT is not below the %.3f nT of the one "
+            "in force" % (result["predicted_error"], result["current_error"]))
     if args.replace:
         print("warning: %s; kept (--replace)" % said)
-        return
-    if not args.auto and sys.stdin is not None and sys.stdin.isatty() and sys.stdout.isatty():
+    elif not args.auto and sys.stdin is not None and sys.stdin.isatty() and sys.stdout.isatty():
         answer = input("%s%s. Keep the new one? [y/N] " % (said[0].upper(), said[1:]))
-        if answer.strip().lower() in ("y", "yes"):
-            return
-    try:
-        dev.ask("set-cal " + json.dumps(previous), timeout=max(dev.timeout, 10.0))
-    except DeviceError as exc:
-        raise CommandError("%s, and the previous one could not be put back (%s): the new one stays in force"
-                           % (said, exc))
-    raise CommandError("%s: the previous calibration is back in force (set-cal); fluxcal calibrate --replace "
-                       "keeps a worse one" % said)
+        if answer.strip().lower() not in ("y", "yes"):
+            raise CommandError("%s: that one stays in force" % said)
+    else:
+        raise CommandError("%s (worse_than_current): that one stays in force; fluxcal calibrate --replace "
+                           "keeps a worse one" % said)
+    kept = dev.ask("keep-cal", timeout=max(dev.timeout, 10.0))
+    return dict(result, state=codes.DONE, reason=None, saved=kept.get("saved"), in_force=True)
 
 
 def _follow(dev, cfg, auto, view, keys):

@@ -59,10 +59,27 @@ def run(args):
         print("safe mode, the stored calibration not applied: %s (set-cal or clear-cal ends it)" % st["safe_mode"])
     last = st.get("last_cal")
     if last:
-        extra = " (%s)" % last["reason"] if last.get("reason") else ""
-        print("last calibration since boot: %s%s%s" % (last.get("state"), extra,
-                                                      ": " + last["msg"] if last.get("msg") else ""))
+        print(last_cal_line(last))
     if st.get("cal"):
         c = st["cal"]
         print("calibrating now: %d samples, coverage %.0f %%" % (c.get("n", 0), 100 * (c.get("coverage") or 0)))
     return 0
+
+
+SINCE = {"set-cal": "replaced since by a calibration sent with set-cal (fluxcal push-cal, calibrate)",
+         "clear-cal": "cleared since (clear-cal)",
+         "keep-cal": "put in force since (keep-cal, fluxcal calibrate --replace)"}
+
+
+def last_cal_line(last):
+    """status's last_cal in one line: the session's end, its reason and message, and whether its
+    calibration is the one in force now (a set-cal, keep-cal or clear-cal since changes that)."""
+    extra = " (%s)" % last["reason"] if last.get("reason") else ""
+    line = "last calibration since boot: %s%s%s" % (last.get("state"), extra,
+                                                    ": " + last["msg"] if last.get("msg") else "")
+    if last.get("since"):
+        line += "; %s: %s" % (SINCE.get(last["since"], last["since"]),
+                              "in force" if last.get("in_force") else "not in force")
+    elif last.get("in_force") is False:
+        line += "; not in force (the handheld holds it until its next calibration or power-off)"
+    return line
