@@ -1,0 +1,64 @@
+"""A session's modules leave with it (device/calibration_flow.py), and come back unchanged.
+
+The firmware imports session.py, the gates, the fit and its solver when a calibration starts and
+drops them from sys.modules when it ends, so that idle and survey run without their bytecode
+(docs/firmware.md, the heap). tests/micropython/two_sessions.py boots the App on the bench's
+loop-back board (.mpy image, real frames of a hand rotation from a file) and runs two full
+calibrations on the same frames, once as a board does and once with the modules imported before
+boot, which the flow then leaves in place. The calibrations must be the same to the bit in every
+case: the second session runs on modules imported afresh, the first as the only one.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+
+import pytest
+
+from desktop.bench.device import SCRIPTS, frame_table
+from desktop.firmware.image import build_image
+from tests.interpreters import INTERPRETERS, need
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SCRIPT = os.path.join(REPO, "tests", "micropython", "two_sessions.py")
+
+
+@pytest.fixture(scope="module")
+def bench_folder(tmp_path_factory):
+    """The .mpy image (lib), the sources (lib-py: CircuitPython refuses MicroPython's .mpy), loopboard.py,
+    the script and 10 s of frames at 1000 SPS; -> (folder, nT per code)."""
+    tmp = str(tmp_path_factory.mktemp("two-sessions"))
+    build_image(os.path.join(tmp, "lib"), runtime="sim")
+    build_image(os.path.join(tmp, "lib-py"), runtime="sim", compiled=False)
+    shutil.copy(os.path.join(SCRIPTS, "loopboard.py"), tmp)
+    shutil.copy(SCRIPT, tmp)
+    table, scale = frame_table(rate=1000)
+    with open(os.path.join(tmp, "frames.bin"), "wb") as f:
+        f.write(table)
+    return tmp, scale
+
+
+def _run(name, exe, folder, scale, resident):
+    root = "flash-%s-%d" % (name, resident)   # an empty flash for each run
+    os.mkdir(os.path.join(folder, root))
+    r = subprocess.run([exe, "-X", "heapsize=512K", "two_sessions.py", "frames.bin", root, repr(scale),
+                        "1" if resident else "0"], capture_output=True, text=True, timeout=900, cwd=folder,
+                       env=dict(os.environ, MICROPYPATH="lib-py" if name == "circuitpython" else "lib"))
+    assert r.returncode == 0, (r.stdout + r.stderr)[-2000:]
+    return json.loads(r.stdout.splitlines()[-1])
+
+
+@pytest.mark.parametrize("name", INTERPRETERS)
+def test_session_modules_leave_and_return_the_same(name, micropython, bench_folder):
+    exe = micropython if name == "micropython" else need(name)
+    folder, scale = bench_folder
+    dropped = _run(name, exe, folder, scale, False)
+    kept = _run(name, exe, folder, scale, True)
+    assert dropped["cals"][0]["meta"]["kind"] == "full", dropped["cals"][0]    # a calibration, not a failure
+    assert dropped["loaded"] == [[], []]
+    assert kept["loaded"] == [["session", "gates", "acceptance", "shared.fit", "shared.solver"]] * 2
+    # the heap they held is given back: dropped leaves less in use after each finish
+    assert all(d < k for d, k in zip(dropped["heap"], kept["heap"])), (dropped["heap"], kept["heap"])
+    assert dropped["cals"] == kept["cals"]
+    assert dropped["cals"][1] == dropped["cals"][0]
