@@ -149,6 +149,7 @@ class CalibrationFlow:
         self._sums_path = SUMS_PATH
         self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind, hold)
         self.output.session = self.session
+        self.output.respond()   # its samples de-lagged with the session's response
         self.last_progress = self.board.ticks_ms()
         self.led.set(ledp.COLLECTING)
         self.proto.event("cal", self.session.progress())
@@ -287,6 +288,7 @@ class CalibrationFlow:
             raise ProtocolError(codes.NOT_CALIBRATING, "no calibration in progress")
         self.session = None
         self.output.session = None
+        self.output.respond()
         self.last_coverage = s.cov
         return s
 

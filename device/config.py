@@ -61,6 +61,11 @@ SCHEMA = {
     # (gates.py gate_dps; docs/experiments/lag.md)
     "sensor_bandwidth_hz": (1000.0, "float", 0.1, 100000.0),
     "lag_tol_nt": (0.5, "float", 0.001, 100.0),
+    # where that lag would bring the gate under gate_rate_dps, the firmware undoes it instead
+    # (shared/delag.py: before the gates, the fit and the survey), and the gate then follows
+    # what is left: the configured tau's relative uncertainty response_tol (gates.py gate_dps)
+    "delag": (True, "bool", 0, 0),
+    "response_tol": (0.05, "float", 0.0, 1.0),
     "quick_min_coverage": (0.1, "float", 0.01, 1.0),  # a quick re-calibration auto-finishes here
     # calibrations this far apart in temperature give the offsets' and gains' coefficients
     "tempco_min_span_c": (2.0, "float", 0.5, 100.0),

@@ -18,8 +18,10 @@ gate's ~7 degree turn per sample.
    low-pass of time constant tau = 1 / (2 pi sensor_bandwidth_hz) reads
    |B| (1 - (tau w)^2 / 2) while turning at w (docs/experiments/lag.md), so
    w <= sqrt(2 lag_tol_nt / B) / tau: 1610 deg/s for a 1 kHz Mag649 at
-   lag_tol_nt 0.5 and B 50,000 nT (the 360 deg/s gate stands), 8 deg/s for a 5 Hz Mag648. The stride s spans
-   enough samples that the allowed turn is a few 14-bit steps. The gate works
+   lag_tol_nt 0.5 and B 50,000 nT (the 360 deg/s gate stands), 8 deg/s for a 5 Hz Mag648.
+   Where that lag would lower the gate, the firmware de-lags the samples instead
+   (`delag`, shared/delag.py) and the gate follows what de-lagging leaves
+   (shared/delag.py configured_tau_s, gate_dps). The stride s spans enough samples that the allowed turn is a few 14-bit steps. The gate works
    in codes: exact for equal scale_x/y/z, tilted by their ratio otherwise.
 2. coverage cap: 6*cells^2 equal-area cells about the centre (the previous
    calibration's offset, else the front end's zero: raw offsets are < 2 % of
@@ -42,6 +44,8 @@ residuals' correlation (session.py).
 import math
 from array import array
 
+from shared.delag import configured_tau_s, lag_dps
+
 HIST = 256           # recent accepted samples kept for removal (5 ints each)
 _RUN = 3             # consecutive outliers that make a disturbance
 _GATE_BITS = 14      # gate/cell arithmetic: |v| < 2**14, so |v|^2 sums stay < 2**30
@@ -50,11 +54,23 @@ _MAX_STRIDE = 64     # rate gate baseline, samples (0.64 s at 100 samples/s)
 
 
 def gate_dps(cfg):
-    """The rotation-rate gate: gate_rate_dps, or lower where the sensor's bandwidth lags."""
-    tau = 1.0 / (2.0 * math.pi * cfg["sensor_bandwidth_hz"])
-    field = cfg["field_nt"] or 50000.0
-    lag = math.sqrt(2.0 * cfg["lag_tol_nt"] / field) / tau * 180.0 / math.pi
-    return min(cfg["gate_rate_dps"], lag)
+    """The rotation-rate gate: gate_rate_dps, or lower where the sensor's lag, or what
+    de-lagging leaves of it, would shrink |B| by more than lag_tol_nt.
+
+    De-lagged with a tau known to a fraction u (response_tol), the samples keep a lag of
+    up to u tau, a first-order lag like the sensor's own: |B| short by B (u tau w)^2 / 2,
+    so w <= sqrt(2 lag_tol / B) / (u tau) -- 164 deg/s for the Mag648 at u = 0.05, the
+    whole gate_rate_dps at u <= 0.02. The de-lag's own residual, the central difference's
+    tau (w T)^2 / 6 (shared/delag.py), is 7e-4 tau at 1 rev/s: far inside any u. Not
+    bounded here: axes whose taus differ by a fraction s (which a common tau leaves) err
+    first order in the rate, up to B w s tau / 2, and a response that is not first
+    order leaves a term in w^2; the calibration's residuals show both (acceptance.py)."""
+    tau = configured_tau_s(cfg)
+    if tau is not None:
+        tau *= cfg["response_tol"]
+    else:
+        tau = 1.0 / (2.0 * math.pi * cfg["sensor_bandwidth_hz"])
+    return min(cfg["gate_rate_dps"], lag_dps(cfg, tau))
 
 
 def disturbance_limit(cfg, rms, predicted_error):

@@ -34,8 +34,8 @@ elif options.runtime == "sim":
 # The calibration core the firmware runs (pure Python, the same files as on the desktop). Not
 # shipped: warmup.py and moved.py (coefficients from one long warm-up, which the firmware does
 # not fit). tests/test_firmware_files.py checks this list against what the firmware imports.
-package("shared", files=["__init__.py", "calibration.py", "codes.py", "coverage.py", "errors.py", "fit.py",
-                         "iteration.py", "linalg.py", "moments.py", "predicted.py", "prior.py", "quadric.py",
+package("shared", files=["__init__.py", "calibration.py", "codes.py", "coverage.py", "delag.py", "errors.py",
+                         "fit.py", "iteration.py", "linalg.py", "moments.py", "predicted.py", "prior.py", "quadric.py",
                          "quick.py", "response.py", "result.py", "solver.py", "start.py", "tempco.py"],
         base_path="..", opt=3)
 

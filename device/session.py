@@ -27,7 +27,9 @@ from gates import HIST, Gates, disturbance_limit
 from shared import codes
 from shared.codes import AUTO, CANCELLED, COLLECTING, DONE, FAILED, FULL, QUICK, RESHAPED
 from shared.coverage import Coverage
+from shared.delag import configured_tau_s, tau_us
 from shared.fit import EllipsoidFit, FitError
+from shared.response import check_response
 
 _MIN_PROVISIONAL = 60
 # Gauss-Newton steps of a provisional solve. It only sets the disturbance gate and
@@ -55,6 +57,13 @@ class Session:
         self.cov = Coverage(cfg["cells"], cfg["cell_cap"])
         self.c = [int(v) for v in self.prior.offset] if self.prior is not None else [0, 0, 0]
         self.gates = g = Gates(cfg, self.fit, self.cov, window, period_ms, self.c)
+        # the response the samples are de-lagged with (survey.py applies it), per axis in whole
+        # us, and the record the calibration carries it in; None: not de-lagged (gates.py)
+        tau = configured_tau_s(cfg)
+        self.taus_us = None if tau is None else [tau_us(tau)] * 3
+        self.response = None if tau is None else {
+            "model": "first-order", "tau_s": [t / 1e6 for t in self.taus_us], "source": "given",
+            "tau_sigma_s": [cfg["response_tol"] * t / 1e6 for t in self.taus_us]}
         # bound once: the per-sample call allocates nothing
         self.sample = g.sample
         self.break_chain = g.break_chain
@@ -268,6 +277,8 @@ class Session:
         code_cal = cal.scaled_input(1.0 / self.window)
         code_cal.diagnostics["coverage"] = round(self.coverage(), 4)
         code_cal.meta["kind"] = cal.diagnostics.get("mode", FULL)
+        if self.response is not None:
+            code_cal.response = check_response(self.response)   # fitted on samples de-lagged with it
         if self.temp_n:
             code_cal.meta["temperature_c"] = round(self.temp_sum / self.temp_n, 2)
         return code_cal, None, None

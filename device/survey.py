@@ -12,7 +12,9 @@ the data/raw events, a rotating flash log).
     rec = sv.sample(sx, sy, sz, st, f)   # None, or a finished block (a tuple)
 
 A sample's way (the DRDY ring's reader calls Output.sample directly): the screen
-(screen.py) drops spikes and clipped samples; a calibration in progress (`session`,
+(screen.py) drops spikes and clipped samples; a slow sensor's lag is undone
+(shared/delag.py, one sample later: after the screen, which a de-lagged spike spread
+over three samples would pass); a calibration in progress (`session`,
 set by calibration_flow.py) gets the good ones; |h_c| per sample, only when a block
 goes out (stream or log), is averaged over the block with the raw sums. A finished
 block gets the die temperature (one per block: it changes over seconds), is
@@ -39,6 +41,7 @@ import os
 
 from protocol import json_number
 from screen import Screen
+from shared.delag import Delag, configured_tau_s, tau_us
 from store import file_path, free_bytes
 
 # re-apply the temperature coefficients when the die moved this much: at 20 ppm/C and
@@ -178,6 +181,8 @@ class Output:
         self.recorder = None       # a survey being recorded (surveylog.Recorder): each block's |B|
         self.survey = None
         self.screen = None
+        self.delag = None          # the sensor's lag undone (shared/delag.py), when _delag_on
+        self._delag_on = False
         self.scale = None
         self.cal = None            # the calibration in force
         self.cal_now = None        # the calibration at the die temperature (tempco applied)
@@ -192,6 +197,7 @@ class Output:
         self.survey = Survey(c, c["window"], sample_hz)
         self.scale = (c["scale_x"], c["scale_y"], c["scale_z"])
         self.screen = Screen(self.scale, c["window"], c["spike_nt"])
+        self.delag = Delag(c["window"])
         if c["log"] and self.log is None:
             self.log = RotatingLog(self.board.root, c["log_file_bytes"], c["log_files"], c["log_reserve_bytes"])
         elif not c["log"] and self.log is not None:
@@ -221,6 +227,29 @@ class Output:
             self.survey.restart()   # the open block's samples carry no |h_c|: start a new one
         self._want_f = want
         self._compensate(self.temp_c, True)
+        self.respond()
+
+    def respond(self):
+        """De-lag with the response of what the samples feed: a calibration in progress's
+        (the configured one, session.py); none for the raw stream (the codes as read, which
+        fluxcal capture records and fluxcal fit --lag de-lags itself); else the one the
+        calibration in force was fitted with (none if its record has none: its samples were
+        not de-lagged), else the configured one. Called again when a session starts or ends
+        (calibration_flow.py) and when the stream changes."""
+        c = self.cfg
+        s = self.session
+        if s is not None:
+            taus = s.taus_us
+        elif self.stream == "raw":
+            taus = None
+        elif self.cal is not None:
+            r = self.cal.response
+            taus = None if r is None else [tau_us(t) for t in r["tau_s"]]
+        else:
+            tau = configured_tau_s(c)
+            taus = None if tau is None else [tau_us(tau)] * 3
+        self.delag.set_taus(taus, c["rate"], c["decim"])
+        self._delag_on = self.delag.taus_us is not None
 
     def _compensate(self, temp, force=False):
         """The calibration at the die temperature (its tempco applied; docs/temperature.md),
@@ -243,6 +272,7 @@ class Output:
     # ****** per sample: the DRDY ring's reader calls these ******
     def gap(self):
         self.screen.reset()
+        self.delag.reset()
         if self.session is not None:
             self.session.break_chain()
 
@@ -258,6 +288,14 @@ class Output:
         sy = sc.y
         sz = sc.z
         st = sc.t
+        if self._delag_on:
+            dl = self.delag
+            if not dl.push(sx, sy, sz, st):
+                return
+            sx = dl.x
+            sy = dl.y
+            sz = dl.z
+            st = dl.t
         s = self.session
         if s is not None:
             s.sample(sx, sy, sz)
@@ -320,7 +358,9 @@ class Output:
     def status(self):
         """Its part of `status`: the stream, the die temperature, the screen's counts, the log."""
         out = {"stream": self.stream, "temp": json_number(self.temp_c, 2), "temp_warn": self.cal_temp_warn,
-               "spikes": self.screen.spikes, "clipped": self.screen.clipped}
+               "spikes": self.screen.spikes, "clipped": self.screen.clipped,
+               # the taus (us per axis) the samples are de-lagged with, None: not de-lagged
+               "delag_us": self.delag.taus_us if self._delag_on else None}
         if self.log is not None:
             out["log"] = {"lines": self.log.lines, "error": self.log.error}
         return out

@@ -151,6 +151,24 @@ def test_push_cal_round_trip_and_the_firmware_s_refusal(handheld, tmp_path):
     assert np.allclose(load_calibration(tmp_path / "c.json").matrix, a.matrix)   # the previous one stays
 
 
+def test_a_pushed_response_is_what_the_survey_de_lags_with(handheld, tmp_path):
+    """A record from `fluxcal fit --lag` carries per-axis taus: the handheld's survey output
+    undoes the lag with them (status delag_us, whole us); one without a response is applied to
+    the samples as read (the Mag649's config: its lag needs no undoing)."""
+    fitted = {"matrix": [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]], "offset": [0.0, 0.0, 0.0], "field": 47200.0,
+              "meta": {"method": "streaming"},
+              "response": {"model": "first-order", "tau_s": [0.0318, 0.032, 0.0316], "source": "estimated"}}
+    (tmp_path / "lag.json").write_text(json.dumps(fitted))
+    out = ok(fluxcal("push-cal", tmp_path / "lag.json", "--port", handheld.port))
+    assert "its survey output de-lagged with tau 31.800, 32.000, 31.600 ms" in out
+    st = json.loads(ok(fluxcal("status", "--json", "--port", handheld.port)))["status"]
+    assert st["delag_us"] == [31800, 32000, 31600]
+    del fitted["response"]
+    (tmp_path / "plain.json").write_text(json.dumps(fitted))
+    assert "de-lagged" not in ok(fluxcal("push-cal", tmp_path / "plain.json", "--port", handheld.port))
+    assert json.loads(ok(fluxcal("status", "--json", "--port", handheld.port)))["status"]["delag_us"] is None
+
+
 def test_capture_then_fit_offline_then_report(handheld, tmp_path):
     cap, cal, rep = tmp_path / "field.npz", tmp_path / "cal.json", tmp_path / "report"
     out = ok(fluxcal("capture", "--seconds", 6, "-o", cap, "--port", handheld.port))

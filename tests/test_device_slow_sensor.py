@@ -1,5 +1,6 @@
-"""A slow sensor (Mag648, 5 Hz bandwidth) on the firmware: the rotation-rate gate follows
-sensor_bandwidth_hz (issue 11). A first-order low-pass of tau = 1 / (2 pi 5 Hz) reads |B|
+"""A slow sensor (Mag648, 5 Hz bandwidth) on the firmware, its lag not undone (`delag` off;
+tests/test_device_delag.py has it undone): the rotation-rate gate follows
+sensor_bandwidth_hz. A first-order low-pass of tau = 1 / (2 pi 5 Hz) reads |B|
 short by B (tau w)^2 / 2 while turning at w (docs/simulator.md, "Sensor lag"), so at the
 default lag_tol_nt of 0.5 nT the gate is ~8 deg/s, not the Mag649's 360.
 - turned by hand at the usual ~1 rev/s: nearly every sample is refused, the LED shows
@@ -32,7 +33,7 @@ def _session(tmp_path, rot_rate, seconds, sensor="mag648", drift=0.0, **cfg):
 
 
 def test_turned_too_fast_for_its_bandwidth_says_so_and_is_refused(tmp_path):
-    w, dev = _session(tmp_path, 1.0, 20.0)
+    w, dev = _session(tmp_path, 1.0, 20.0, delag=False)
     try:
         prog = [e for e in events(w, "cal") if e.get("state") == "collecting"]
         # the docstring's gate, sqrt(2 lag_tol / B) / tau = 8.2 deg/s, not the Mag649's 360 (reported: 8.0)
@@ -54,7 +55,7 @@ def test_turned_too_fast_for_its_bandwidth_says_so_and_is_refused(tmp_path):
 
 
 def test_turned_slowly_enough_it_calibrates_right(tmp_path):
-    w, dev = _session(tmp_path, 0.02, 300.0)
+    w, dev = _session(tmp_path, 0.02, 300.0, delag=False)
     try:
         prog = [e for e in events(w, "cal") if e.get("state") == "collecting"]
         # 0.02 rev/s (7.2 deg/s) is under the 8 deg/s gate on average, over it in a hand's faster

@@ -7,7 +7,6 @@ code units with the device's front-end scale (config scale_x/y/z).
 """
 
 import json
-import sys
 
 from desktop.cli._errors import CommandError
 from desktop.cli._device import add_port_arguments, connected, device_config, nT_per_code
@@ -43,10 +42,8 @@ def run(args):
     print("pushed %s to %s%s: saved and in force" % (
         args.calibration, dev.port, " (converted from nT to its code units)" if converted else ""))
     print("  " + fit_figures(dict(cal.diagnostics, field=cal.field)))
-    if cal.response is not None:   # the record keeps it; the firmware's survey does not apply it yet
-        print("fluxcal: warning: the calibration carries a sensor response (--lag), which the handheld keeps but "
-              "does not undo: its survey |B| is not de-lagged; `fluxcal correct` on its recordings is",
-              file=sys.stderr)
+    if cal.response is not None:
+        print("  its survey output de-lagged with tau %s ms" % ", ".join("%.3f" % (1e3 * t) for t in cal.response["tau_s"]))
     return 0
 
 

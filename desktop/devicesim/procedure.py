@@ -80,7 +80,8 @@ def send(dev, world, line, dt=0.05):
 
 def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s=120.0, spin_s=10.0,
                          noise_nt=0.1, rate=1000, progress=None, motion_seed=11, cal_world=None, polled=False,
-                         costs=COSTS_S, on_cal_device=None, **config):
+                         costs=COSTS_S, on_cal_device=None, sensor=None, rot_rate=1.0, spin_rev_s=None,
+                         **config):
     """Calibrate on one simulated capture (hand), verify on another (spin), same sensor.
 
     Like the real procedure: the firmware boots, the operator presses the
@@ -93,10 +94,13 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
     polled, costs: the simulated board's DRDY mode and main-loop cost model
     (hal_sim.Board; costs.COSTS_S by default). on_cal_device(dev, world) runs
     right after the calibration run's boot (e.g. to install spies in-process).
+    sensor: Scenario settings of the sensor for both captures (e.g. {"sensor": "mag648"});
+    rot_rate: the hand's pace (rev/s); spin_rev_s: the spin's rate (default one turn in spin_s).
     """
+    sensor = sensor or {}
     os.makedirs(root, exist_ok=True)
-    w = make_world(serial=None, motion="hand", seconds=rotate_s + 3.0, seed=seed,
-                   motion_seed=motion_seed, noise=noise_nt, rate=rate, **(cal_world or {}))
+    w = make_world(serial=None, motion="hand", seconds=rotate_s + 3.0, seed=seed, rot_rate=rot_rate,
+                   motion_seed=motion_seed, noise=noise_nt, rate=rate, **dict(sensor, **(cal_world or {})))
     scale = w.scenario.nt_per_code()
     write_config(root, **dict(handheld_config(w.scenario, kind), rate=rate, **config))
     # a board's own HAL decides polling, and charges no costs (its busy() is hardware's no-op)
@@ -136,8 +140,8 @@ def calibrate_and_verify(kind="micropython", root="out/device", seed=1, rotate_s
     finally:
         dev.close()
     # verification: power on again, one 360 degree turn about the vertical in spin_s
-    w2 = make_world(serial=None, motion="spin", seconds=spin_s + 2.0, rot_rate=1.0 / spin_s,
-                    seed=seed, motion_seed=motion_seed + 1, noise=noise_nt, rate=rate)
+    w2 = make_world(serial=None, motion="spin", seconds=spin_s + 2.0, rot_rate=spin_rev_s or 1.0 / spin_s,
+                    seed=seed, motion_seed=motion_seed + 1, noise=noise_nt, rate=rate, **sensor)
     options.pop("on_boot", None)
     dev = start_device(w2, root, kind=kind, **options)
     try:

@@ -1,0 +1,169 @@
+"""Undo a slow sensor's lag on the decimated integer samples: exact, the same on every interpreter.
+
+    from shared.delag import Delag, tau_us
+    dl = Delag(window=2)
+    dl.set_taus([31831] * 3, rate=1000, decim=10)   # per-axis tau in whole us; None: off
+    if dl.push(sx, sy, sz, st):                     # two samples late: that one is ready
+        use(dl.x, dl.y, dl.z, dl.t)                 # boxcar sums with the lag undone
+    dl.reset()                                      # after a gap: neighbours are not neighbours
+
+Why: a first-order sensor of time constant tau = 1 / (2 pi f_c) reading the field r obeys
+tau y' + y = r, so r = y + tau y' exactly. The ADS1292's sinc filter and the firmware's
+boxcar are linear and time invariant too, so they commute with that: the boxcar sums y_n,
+de-lagged, are the field through the ADC's filter and the boxcar only -- sub-millisecond
+delays common to the three axes, which leave |B| alone.
+
+Where the derivative is taken: at the decimated rate f_s = rate / decim, by the five-point
+central difference (Richardson's combination of the spans T and 2 T, T = 1 / f_s),
+
+    x_n = y_n + k (8 (y_(n+1) - y_(n-1)) - (y_(n+2) - y_(n-2))),   k = tau f_s / 12,
+
+output two samples (20 ms at the defaults) late.
+- Central, not backward: y_n - y_(n-1) is the derivative at t_n - T/2, a radial error
+  tau (T/2) y'' that shrinks |B| by B tau T w^2 / 2 -- 75 nT for the Mag648 (tau 31.8 ms)
+  at 0.5 rev/s.
+- Five points, not three: the three-point (y_(n+1) - y_(n-1)) / 2T reads y' with an error
+  T^2 y'''/ 6, and the third derivative of a hand's turn has a radial part -3 B w a (w the
+  rate, a the angular acceleration): |B| off by tau T^2 B w a / 2, which follows the hand's
+  reversals and tremor. Decimated Mag648 captures (fluxcal simulate, hand, seed 5) fitted
+  with their ellipsoid leave 1.47 nT rms at 0.5 rev/s and 5.9 nT at 1 rev/s that way, 0.58
+  and 0.78 nT with five points (error T^4 y^(5) / 30), for 1.3 times the three-point's
+  noise.
+- Decimated, not at every conversion: the de-lag term's white noise is
+  (tau f_s / 12) sqrt 130 times a sample's, 3.0 for the Mag648 at 100 samples/s (the
+  survey's 0.1 s block average cancels most of it: the differences telescope); between
+  1 ms conversions it would be ten times that, and the interrupt handler would pay for it.
+
+Integers: k is num / 2**shift, num = round(tau f_s 2**shift / 12) computed from tau in whole
+microseconds and the integer rate and decimation (the only float step is a tau in seconds
+to whole microseconds, the same on a 30-bit float unless tau lies within 1e-9 s of a half
+microsecond). With d1 = y_(n+1) - y_(n-1) = h1 2**shift + l1, and d2 = y_(n+2) - y_(n-2)
+likewise (0 <= l < 2**shift),
+
+    round(num (8 d1 - d2) / 2**shift) = 8 num h1 - num h2 + ((8 num l1 - num l2 + 2**(shift-1)) >> shift)
+
+exactly (ties up): shift is chosen so that 8 num < 2**(30 - shift), and |8 num h1|,
+|num h2| <= 2**27 is checked before multiplying, so every value stays a small int
+(|.| < 2**30: no heap allocation on MicroPython). A de-lag term that large (2**26 nT at
+the handheld's scale), or a result beyond the boxcar's full scale (window 2**23), is no
+field: the sample is dropped and counted in `saturated`.
+"""
+
+import math
+
+_LIMIT = 1 << 27      # the largest part of a de-lag term, sum units
+_MAX_SHIFT = 16
+DELAY = 2             # samples between a push and the de-lagged sample it completes
+
+
+def lag_dps(cfg, tau):
+    """The turn rate (deg/s) at which a first-order lag tau (s) shrinks |B| by the firmware
+    config's lag_tol_nt: B (tau w)^2 / 2 (B its field_nt, else 50,000 nT)."""
+    field = cfg["field_nt"] or 50000.0
+    return math.sqrt(2.0 * cfg["lag_tol_nt"] / field) / tau * 180.0 / math.pi if tau > 0.0 else 1e9
+
+
+def configured_tau_s(cfg):
+    """The firmware config's sensor time constant (s, from sensor_bandwidth_hz) when the samples
+    are de-lagged with it: `delag` on, and its lag would bring the rate gate under
+    gate_rate_dps (device/gates.py); else None: a sensor fast enough for the gate is left as it is."""
+    tau = 1.0 / (2.0 * math.pi * cfg["sensor_bandwidth_hz"])
+    if cfg["delag"] and lag_dps(cfg, tau) < cfg["gate_rate_dps"]:
+        return tau
+    return None
+
+
+def tau_us(tau_s):
+    """A time constant in seconds as whole microseconds (the de-lag's unit)."""
+    return int(tau_s * 1e6 + 0.5)
+
+
+def coefficients(taus_us, rate, decim):
+    """(shift, [num] * 3): k_i = tau_i rate / (12 decim) as num_i / 2**shift, exactly rounded;
+    shift the largest (<= 16) with every 8 num_i < 2**(30 - shift)."""
+    den = 12000000 * decim
+    shift = _MAX_SHIFT
+    while True:
+        nums = [(t * rate * (1 << shift) + den // 2) // den for t in taus_us]
+        if 8 * max(nums) < 1 << (30 - shift) or shift == 1:
+            return shift, nums
+        shift -= 1
+
+
+class Delag:
+    def __init__(self, window):
+        self.top = window << 23      # |a de-lagged sum| stays under the boxcar's full scale
+        self.saturated = 0           # samples dropped: a de-lag term no field makes
+        self.taus_us = None          # None: off (push is not called)
+        self.x = self.y = self.z = self.t = 0
+        # the last five samples, oldest first: (x, y, z, temperature) each
+        self._h = [[0, 0, 0, 0] for _ in range(5)]
+        self.reset()
+
+    def set_taus(self, taus_us, rate, decim):
+        """De-lag with these per-axis time constants (whole us) at rate / decim samples/s;
+        None switches it off. The held samples are raw, so they stay valid."""
+        if taus_us is not None and (len(taus_us) != 3 or min(taus_us) < 0):
+            raise ValueError("taus_us must be 3 non-negative integers")
+        if taus_us is None or not max(taus_us):
+            self.taus_us = None
+            return
+        if self.taus_us is None:
+            self.reset()   # pushes stopped while off: what is held is stale
+        self.taus_us = list(taus_us)
+        self._shift, self._k = coefficients(self.taus_us, rate, decim)
+        self._lim = [(_LIMIT // (8 * n) if n else _LIMIT) for n in self._k]
+
+    def reset(self):
+        """Forget the held samples (a gap: the next one has no neighbour)."""
+        self._n = 0
+
+    def push(self, x, y, z, t):
+        """Take sample n + 2; True when sample n, de-lagged, is in .x .y .z (.t its temperature)."""
+        h = self._h
+        s = h[0]            # the oldest slot is reused for the newest sample: no allocation
+        h[0] = h[1]
+        h[1] = h[2]
+        h[2] = h[3]
+        h[3] = h[4]
+        h[4] = s
+        s[0] = x
+        s[1] = y
+        s[2] = z
+        s[3] = t
+        if self._n < 4:
+            self._n += 1
+            return False
+        a = h[0]
+        b = h[1]
+        c = h[2]
+        d = h[3]
+        k = self._k
+        lim = self._lim
+        sh = self._shift
+        top = self.top
+        vx = _delagged(c[0], d[0] - b[0], x - a[0], k[0], lim[0], sh, top)
+        vy = _delagged(c[1], d[1] - b[1], y - a[1], k[1], lim[1], sh, top)
+        vz = _delagged(c[2], d[2] - b[2], z - a[2], k[2], lim[2], sh, top)
+        if vx is None or vy is None or vz is None:
+            self.saturated += 1
+            return False
+        self.x = vx
+        self.y = vy
+        self.z = vz
+        self.t = c[3]
+        return True
+
+
+def _delagged(c, d1, d2, num, lim, shift, top):
+    """c + round(num (8 d1 - d2) / 2**shift) (ties up) in small ints, or None for a term
+    beyond the limits (module docstring)."""
+    h1 = d1 >> shift
+    h2 = d2 >> shift
+    if h1 > lim or h1 < -lim or h2 > 8 * lim or h2 < -8 * lim:
+        return None
+    n8 = num << 3
+    v = c + n8 * h1 - num * h2 + ((n8 * (d1 - (h1 << shift)) - num * (d2 - (h2 << shift)) + (1 << (shift - 1))) >> shift)
+    if v >= top or v <= -top:
+        return None
+    return v
