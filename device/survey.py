@@ -13,7 +13,7 @@ the data/raw events, a rotating flash log).
 
 A sample's way (the DRDY ring's reader calls Output.sample directly): the screen
 (screen.py) drops spikes and clipped samples; a slow sensor's lag is undone
-(shared/delag.py, one sample later: after the screen, which a de-lagged spike spread
+(shared/delag.py, two samples later: after the screen, which a de-lagged spike spread
 over three samples would pass); a calibration in progress (`session`,
 set by calibration_flow.py) gets the good ones; |h_c| per sample, only when a block
 goes out (stream or log), is averaged over the block with the raw sums. A finished
