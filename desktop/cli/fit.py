@@ -169,8 +169,9 @@ def _undo_lag(args, h, t):
 
 def _add_tau_error(cal, h, honest, lag):
     """The predicted error of a de-lagged fit: the core's widened by the residuals' long-run
-    variance (desktop.methods.lag.long_run_ratio: the derivative's noise telescopes), the
-    systematic floor kept, and the taus' uncertainty in quadrature (lag.tau_error)."""
+    variance (desktop.methods.lag.long_run_ratio: the derivative's noise telescopes) when the
+    response is first order, the systematic floor kept, and the taus' uncertainty in
+    quadrature (lag.tau_error)."""
     import math
 
     from desktop.methods import magnitudes
@@ -180,7 +181,9 @@ def _add_tau_error(cal, h, honest, lag):
     t = lag["t"]
     batch = max(int(round(0.1 * (len(t) - 1) / (t[-1] - t[0]))), int(10 * honest["tau_int"]), 1)
     ratio = long_run_ratio(magnitudes(cal, h) - cal.field, batch)
-    if ratio is not None and not cal.diagnostics.get("prior_error"):
+    # a response the first-order model does not represent leaves residuals that follow the
+    # motion, not only the derivative's noise: they are counted as the core counts them
+    if ratio is not None and lag["model_ok"] and not cal.diagnostics.get("prior_error"):
         honest["predicted_error"] = max(honest["predicted_error_white"] * ratio, honest["applied_floor"])
     err = 0.0
     if lag["tau_cov"].any():
