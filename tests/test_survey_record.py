@@ -154,6 +154,12 @@ def test_without_a_handheld_a_wrong_port_or_the_gps_extra_the_survey_says_so_in_
     assert "no reply to 'version'" in line, line
     line = one_line_error(fluxcal("survey", "--grid", "4y3", "--line-spacing", 1, "-o", out))
     assert "--grid must be WIDTHxLENGTH" in line, line
+    kept = tmp_path / "kept.npz"        # a survey already there is continued, never overwritten
+    kept.write_bytes(b"a survey")
+    line = one_line_error(fluxcal("survey", "--grid", "4x3", "--line-spacing", 1, "-o", kept))
+    assert "--resume continues it" in line and kept.read_bytes() == b"a survey", line
+    line = one_line_error(fluxcal("survey", "--resume", "-o", out))
+    assert "--grid WxL and --line-spacing S are needed" in line, line
     code = ("import sys; sys.modules['pynmea2'] = None; sys.argv[0] = 'fluxcal'; from desktop.cli import main; "
             "sys.exit(main(sys.argv[1:]))")
     r = subprocess.run([sys.executable, "-c", code, "survey", "--gps", "/dev/ttyUSB9", "--grid", "4x3",

@@ -86,26 +86,32 @@ def _survey_info(dev):
         raise
 
 
-def _open_recording(args, grid, dev=None):
-    """The file to continue (--resume, --pull) or a new Recording; refuses to overwrite a survey."""
-    from desktop.survey.recording import Recording
+def _check_output(args, grid):
+    """Before the handheld is asked anything: a survey file is never overwritten unless continued,
+    and a new one needs its grid and a folder to go in."""
     exists = os.path.exists(args.output)
-    if exists and (args.resume or args.pull):
-        return Recording.load(args.output)
-    if exists:
+    if exists and not (args.resume or args.pull):
         raise CommandError("%s exists: --resume continues it, --pull completes it from the handheld; "
                            "or give another name" % args.output)
-    if grid is None:
+    if not exists and grid is None:
         raise CommandError("--grid WxL and --line-spacing S are needed%s" % (
             "" if not (args.resume or args.pull) else " (%s does not exist yet)" % args.output))
     if not os.path.isdir(os.path.dirname(os.path.abspath(args.output))):
         raise CommandError("%s: directory does not exist" % os.path.dirname(os.path.abspath(args.output)))
-    meta = {"port": dev.port, "version": dev.info, "device_config": device_config(dev)} if dev else {}
-    return Recording(grid, nT_per_code(meta["device_config"]) if dev else [1.0, 1.0, 1.0], meta)
+
+
+def _open_recording(args, grid, dev):
+    """The file to continue (--resume, --pull), or a new Recording of this handheld."""
+    from desktop.survey.recording import Recording
+    if os.path.exists(args.output):
+        return Recording.load(args.output)
+    meta = {"port": dev.port, "version": dev.info, "device_config": device_config(dev)}
+    return Recording(grid, nT_per_code(meta["device_config"]), meta)
 
 
 def run(args):
     grid = grid_from_args(args)
+    _check_output(args, grid)
     if args.gps and args.pull:
         raise CommandError("--gps records while walking; --pull reads the handheld's log only")
     gps = None
