@@ -196,7 +196,7 @@ def test_gps_fixes_are_kept_on_the_boards_clock(runtime_env, tmp_path):
     feeder = threading.Thread(target=_gps, args=(master, stop), daemon=True)
     feeder.start()
     try:
-        with _emulate(runtime_env, grid="1x2") as (emu, port):      # one line of 2 m
+        with _emulate(runtime_env, grid="1x2", speed=0.5) as (emu, port):      # one line of 2 m
             out = str(tmp_path / "gps.npz")
             rec = _survey(port, "--grid", "1x2", "--line-spacing", SPACING, "--gps", os.ttyname(slave), "-o", out,
                           env=runtime_env)
@@ -215,9 +215,35 @@ def test_gps_fixes_are_kept_on_the_boards_clock(runtime_env, tmp_path):
     lon = np.array([11 + 31.000 / 60, 11 + 31.004 / 60])
     assert set(z["gps_quality"]) == {1.0, 4.0} and np.all(np.isin(z["gps_lat"], lat)) and \
         np.all(np.isin(z["gps_lon"], lon))
-    # 5 a second while the survey ran, each at its arrival on the board's clock: within the
-    # readings' span, give or take the line's latency (a pass, the pty) and the stream's 0.1 s blocks
+    # 5 a second (of the laptop's: 10 of the board's at half real time) while the survey ran, each
+    # at its arrival on the board's clock: within the readings' span, give or take the line's
+    # latency (a pass, the pty) and the stream's 0.1 s blocks
     span = z["t"][-1] - z["t"][0]
     assert len(z["gps_t"]) >= 4 * span and z["gps_t"].min() >= z["t"][0] - 1.0 and z["gps_t"].max() <= z["t"][-1] + 1.0
     meta = json.loads(str(z["config"]))["gps"]
     assert meta["fixes"] > 0 and abs(meta["bad_sentences"] - meta["fixes"]) <= 1   # a bad checksum per fix sent
+
+
+def test_a_recording_from_a_calibrated_handheld_is_mapped_as_such(tmp_path):
+    """The |B| a recording holds is the handheld's: map says whose calibration it carries, and
+    --cal on readings only the flash log had (no codes) is refused in one line."""
+    from desktop.survey.recording import Recording
+    grid = dict(width_m=2.0, length_m=4.0, spacing_m=1.0, zigzag=True, pace_s_per_m=1.0)
+    rec = Recording(grid, [0.01, 0.01, 0.01], {"handheld_calibrated": True})
+    rng = np.random.default_rng(0)
+    for line in range(2):
+        start = 1000 + line * 6000
+        rec.mark(start)
+        rec.mark(start + 4000)
+        for ms in range(start - 500, start + 4500, 100):       # 0.1 s blocks, a walk of 1 m/s
+            rec.reading(ms, 48000.0 + rng.normal(0, 0.1), [4.8e6, 0.0, 0.0], 25.0)
+    rec.save(str(tmp_path / "s.npz"))
+    m = fluxcal("map", tmp_path / "s.npz", "-o", tmp_path / "map", "--sample", 0.25)
+    assert m.returncode == 0, m.stderr
+    assert "2 traverses 1 m apart (zig-zag), calibrated on the handheld" in m.stdout, m.stdout
+    rec.merge_log(b"FXSVLOG1" + np.array([(60000, 4800000)], dtype="<u4,<i4").tobytes())
+    rec.save(str(tmp_path / "s.npz"))
+    cal = tmp_path / "cal.json"
+    cal.write_text(json.dumps({"matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "offset": [0, 0, 0], "field": 48000.0}))
+    line = one_line_error(fluxcal("map", tmp_path / "s.npz", "--cal", cal, "-o", tmp_path / "map"))
+    assert "1 readings of this recording came from the handheld's flash log" in line, line

@@ -103,6 +103,16 @@ def run(grid, spacing, sensor, sensor_seed, site_seed, motion_seed, out_dir, pip
     return rows, site, (wall, cpu), walked.seconds
 
 
+def print_table(rows, need, first="sensor"):
+    """The markdown table of rows (label, stripes, found, missed, invented, errors, level)."""
+    print("| %s | stripes, nT rms | found (of %d) | missed | invented | position error, m (median / max) "
+          "| detection level, nT |" % (first, need))
+    print("|---|---|---|---|---|---|---|")
+    for label, stripes, found, missed, invented, errors, level in rows:
+        err = "%.2f / %.2f" % (np.median(errors), max(errors)) if errors else "-"
+        print("| %s | %.2f | %d | %d | %d | %s | %.1f |" % (label, stripes, found, missed, invented, err, level))
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--grid", default="20x20")
@@ -124,12 +134,7 @@ def main(argv=None):
                                                   site["clutter_ptp_nT"], len(need),
                                                   RATIO * site["clutter_ptp_nT"]))
     print()
-    print("| sensor | stripes, nT rms | found (of %d) | missed | invented | position error, m (median / max) "
-          "| detection level, nT |" % len(need))
-    print("|---|---|---|---|---|---|---|")
-    for label, stripes, found, missed, invented, errors, level in rows:
-        err = "%.2f / %.2f" % (np.median(errors), max(errors)) if errors else "-"
-        print("| %s | %.2f | %d | %d | %d | %s | %.1f |" % (label, stripes, found, missed, invented, err, level))
+    print_table(rows, len(need))
     print()
     print("fluxcal map on the calibrated survey (%s m, %g m lines): %.1f s wall, %.1f s CPU (%d CPUs, load %.1f)"
           % (args.grid, args.line_spacing, wall[0], wall[1], os.cpu_count(), os.getloadavg()[0]))

@@ -47,9 +47,10 @@ def run(args):
     cal = load_calibration(args.cal) if args.cal else None
     steps = [s for s in STEPS if not getattr(args, "no_" + s)]
     res = make_map(args.survey, cal, steps, not args.no_interpolate, args.sample, args.threshold)
+    on_handheld = res.survey_grid.handheld_calibrated
     what = "total-field anomaly of %s, %s" % (os.path.basename(args.survey),
                                               "calibrated by %s" % os.path.basename(args.cal) if cal
-                                              else "uncalibrated")
+                                              else "calibrated on the handheld" if on_handheld else "uncalibrated")
     write_xyz(os.path.join(args.output, "grid.csv"), res.grid, what + "; steps: " + (", ".join(steps) or "none"))
     write_anomalies(os.path.join(args.output, "anomalies.csv"), res.anomalies)
     write_map(os.path.join(args.output, "map.png"), res.grid, args.clip, what, res.anomalies)

@@ -201,6 +201,7 @@ def _record(dev, info, rec, args, gps):
                 ms = (ev["t"] - t0) % period
                 if ms < period // 2:        # a block from before `survey start`: not the survey's
                     rec.reading(ms, ev["f"], ev.get("c"), ev.get("temp"))
+                    rec.meta["handheld_calibrated"] = bool(ev.get("cal"))
                     arrivals.append((now, ms / 1000.0))
             elif name == "mark":
                 if rec.mark(ev["ms"]):
@@ -237,8 +238,11 @@ def _record(dev, info, rec, args, gps):
 def _save(rec, path, gps, arrivals):
     if gps is not None and arrivals:
         import numpy as np
-        offset = float(np.median([b - a for a, b in arrivals[-200:]]))    # board s - laptop s
-        rec.gps = [(t + offset, lat, lon, q) for t, lat, lon, q in gps.fixes()]
+        # the board's clock against the laptop's, by the data's arrivals: a line (two crystals
+        # differ by tens of ppm, seconds a day; an emulator may run slower than real time)
+        lap, board = np.asarray(arrivals, dtype=float).T
+        rate, offset = np.polyfit(lap, board, 1) if np.ptp(lap) > 1.0 else (1.0, float(np.median(board - lap)))
+        rec.gps = [(rate * t + offset, lat, lon, q) for t, lat, lon, q in gps.fixes()]
         rec.meta["gps"] = {"port": gps.port, "fixes": len(rec.gps), "bad_sentences": gps.bad}
     try:
         rec.save(path)

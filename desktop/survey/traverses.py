@@ -35,6 +35,8 @@ class Traverse:
 class Grid:
     """The survey's grid: width_m (east), length_m (north), spacing_m, zigzag, origin at (0, 0)."""
 
+    handheld_calibrated = False     # the readings are |B| a calibrated handheld computed
+
     def __init__(self, width_m, length_m, spacing_m, zigzag):
         self.width_m, self.length_m = float(width_m), float(length_m)
         self.spacing_m, self.zigzag = float(spacing_m), bool(zigzag)
@@ -46,7 +48,10 @@ def survey_grid(cap, path="survey"):
     if not s or "line_marks" not in cap:
         raise FormatError("%s: not a walked survey (no line markers or grid; record one with "
                           "fluxcal simulate --motion survey)" % path)
-    return Grid(s["width_m"], s["length_m"], s["spacing_m"], s["zigzag"])
+    grid = Grid(s["width_m"], s["length_m"], s["spacing_m"], s["zigzag"])
+    # a recording's |B| is the handheld's, with the calibration it had in force (fluxcal survey)
+    grid.handheld_calibrated = bool(cfg.get("handheld_calibrated")) and "f_nT" in cap
+    return grid
 
 
 def magnitudes(cap, cal=None):
