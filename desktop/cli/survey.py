@@ -199,7 +199,9 @@ def _record(dev, info, rec, args, gps):
             if name == "data":
                 last = now
                 ms = (ev["t"] - t0) % period
-                if ms < period // 2:        # a block from before `survey start`: not the survey's
+                # a block from before `survey start` (ms 0 too: taken in the pass that ran it, before
+                # it) is not the survey's; the log has every block that is
+                if 0 < ms < period // 2:
                     rec.reading(ms, ev["f"], ev.get("c"), ev.get("temp"))
                     rec.meta["handheld_calibrated"] = bool(ev.get("cal"))
                     arrivals.append((now, ms / 1000.0))
