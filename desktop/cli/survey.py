@@ -226,9 +226,9 @@ def _record(dev, info, rec, args, gps):
                                str(exc).rstrip("."), rec.lines_done(), n_lines, args.output, args.output))
     except KeyboardInterrupt:
         ended = "stopped at Ctrl-C"
-    try:        # the blocks the stream dropped (a busy line), from the log; then the handheld stops recording
-        rec.merge_log(pull_log(dev))
+    try:        # the handheld stops recording; then the blocks the stream did not bring, from its log
         dev.ask("survey stop")
+        rec.merge_log(pull_log(dev))
     except LinkError as exc:
         print("note: %s (the handheld may still be recording: --pull completes the file)" % exc, file=sys.stderr)
     quietly(dev, "stream %s" % stream_before)
