@@ -53,6 +53,23 @@ def test_boots_the_rp2_firmware_on_an_armv6m_core(pico):
     assert ARCHS[int(arch)] == "armv6m" and heap_ok == "True", out   # _mpy's bits 10..: the native code
 
 
+def test_machine_freq_sets_the_emulated_clock(pico):
+    """rp2040js derives clk_sys from the PLL; the runner spends 1/clk_sys of emulated time per
+    cycle, so a loop's instructions take 125/48 times as long at 48 MHz. Slack: the USB
+    interrupts the loop may meet (tens of us over ~0.1 s) and the 1 us tick, under 2 %."""
+    board = pico()
+    out = mpremote(board.port, "exec", "import machine, time\n"
+                   "def spin():\n t0 = time.ticks_us()\n for i in range(20000): pass\n"
+                   " return time.ticks_diff(time.ticks_us(), t0)\n"
+                   "a = spin(); machine.freq(48000000); b = spin(); f = machine.freq(); machine.freq(125000000)\n"
+                   "print(a, b, f, spin())")
+    at_125, at_48, freq, again = (int(w) for w in out.split()[-4:])
+    assert freq == 48000000
+    assert abs(at_48 / at_125 - 125 / 48) < 0.02 * 125 / 48, out
+    assert abs(again / at_125 - 1) < 0.02, out
+    assert board.figures()["clk_sys_hz"] == 125000000
+
+
 def test_files_survive_machine_reset_and_a_restart_of_the_emulator(pico, tmp_path):
     flash = str(tmp_path / "pico.flash")
     src = tmp_path / "note.txt"

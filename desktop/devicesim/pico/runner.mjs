@@ -30,7 +30,7 @@ import { pathToFileURL } from 'node:url';
 const FLASH_SIZE = 2 * 1024 * 1024;      // RPI_PICO's W25Q16: firmware, then littlefs from 0xa0000
 const FLASH_BASE = 0x10000000;
 const FS_OFFSET = 0xa0000, FS_BLOCK = 4096;  // RPI_PICO's filesystem: 1408 KiB of 4 KiB blocks
-const CYCLE_NS = 8;                      // 125 MHz
+const CYCLE_NS = 8;                      // 125 MHz: clk_sys until the firmware sets the PLL
 const BATCH = 20000;                     // instructions between looks at the host and the wall clock
 const SLICE_MS = 20;                     // longest run without yielding to Node (host bytes, signals)
 const LAG_NS = 50e6;                     // paced: emulated time may trail the wall clock by this much
@@ -104,6 +104,9 @@ const bootrom = patchedBootrom();
 const fromHost = [];                     // Buffers not yet handed to the board
 let pendingOut = null;                   // the size of the OUT buffer the board armed, or null
 let mcu, cdc, clock, resetAsked = null, resetReason = 0;
+// emulated ns per instruction cycle: clk_sys as rp2040js derives it from the PLL and CLOCKS
+// registers, so machine.freq() gives the firmware fewer (or more) cycles per emulated second
+let cycleNs = CYCLE_NS;
 
 function offerHostBytes() {
   if (pendingOut === null || fromHost.length === 0 || cdc.outEndpoint < 0) return;
@@ -126,6 +129,8 @@ console.warn = (msg) => { if (!NOISE.test(msg)) say(msg); };     // rp2040js's S
 function createChip(why) {
   clock = new SimulationClock(125e6);
   mcu = new RP2040(clock);
+  cycleNs = 1e9 / mcu.clkSys;
+  mcu.addClockListener((hz) => { cycleNs = 1e9 / hz; });
   mcu.logger = {
     debug() {}, info() {},
     // noise: one core is emulated (core 1's FIFO at SIO 0x50/0x58, SOURCE.md); the XIP cache's
@@ -214,7 +219,7 @@ function run() {
     const core = mcu.core;
     for (let i = 0; i < BATCH && !resetAsked && !paused; i++) {
       if (!core.waiting) {
-        clock.tick(core.executeInstruction() * CYCLE_NS);
+        clock.tick(core.executeInstruction() * cycleNs);
         continue;
       }
       if (!clock.nextAlarm) {            // asleep with nothing due: wait for the host
@@ -268,8 +273,8 @@ process.on('SIGTERM', () => quit(0));
 process.on('SIGINT', () => quit(0));
 process.on('SIGUSR2', () => { saveFlash(); resetReason = 0; createChip('power cycle'); wake(); });
 // SIGUSR1: one line of figures (pico_board.PicoBoard.figures): emulated ns since power-on, of
-// which asleep, the awake cycles by part, and the bridge's counts
-process.on('SIGUSR1', () => say(`figures ${JSON.stringify({ ns: clock.nanos, asleep_ns: asleepNs,
+// which asleep, clk_sys (Hz), the awake cycles by part, and the bridge's counts
+process.on('SIGUSR1', () => say(`figures ${JSON.stringify({ ns: clock.nanos, asleep_ns: asleepNs, clk_sys_hz: mcu.clkSys,
   wall_ms: performance.now(), parts: parts.figures(), bridge: world?.figures() ?? null })}`));
 process.stdout.on('error', () => quit(0));   // the host side is gone
 
