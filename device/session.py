@@ -84,6 +84,7 @@ class Session:
         self._fast_mark = 0          # rej_rate / seen at the last progress report
         self._seen_mark = 0
         self.slow_down = False       # most samples of the last report turned too fast
+        self.turn_sd = 0.0           # sd of the squared turn between accepted samples (residual_rho)
 
     def elapsed_s(self, now_ms, diff):
         return diff(now_ms, self.started) / 1000.0
@@ -147,6 +148,7 @@ class Session:
         # the pair's mean residual (its variance ~ var) against its turn
         tm = t / pairs
         tvar = tt / pairs - tm * tm
+        self.turn_sd = math.sqrt(tvar) if tvar > 0.0 else 0.0   # of (w T)^2, rad^2: the tau term (_widen)
         rate = (st / (2 * pairs) - m * tm) / math.sqrt(var * tvar) if tvar > 0.0 else None
         return (s1 / pairs - m * m) / var, pairs, rate
 
@@ -272,7 +274,7 @@ class Session:
         self._widen(cal)
         problem = self.check(cal)
         if problem:
-            return self._fail_fast(problem[0], problem[1])
+            return self._fail_fast(problem[0], problem[1] + self._response_left(cal))
         self.state = DONE
         code_cal = cal.scaled_input(1.0 / self.window)
         code_cal.diagnostics["coverage"] = round(self.coverage(), 4)
@@ -282,6 +284,26 @@ class Session:
         if self.temp_n:
             code_cal.meta["temperature_c"] = round(self.temp_sum / self.temp_n, 2)
         return code_cal, None, None
+
+    def _response_left(self, cal):
+        """What residuals that follow each other say after de-lagging ("" when the samples were
+        not de-lagged, or the residuals are independent): with the turn rate, the sensor's
+        lag is not the configured one (too much de-lagged, or more than one pole: measured
+        +0.70 for a bandwidth configured 20 % low, +0.56 for two poles, docs/firmware.md);
+        without it, axes that lag differently (an error first order in the rate, whose sign
+        follows the direction of the turn) or a field that moves."""
+        d = cal.diagnostics
+        rho = d.get("residual_rho")
+        turn = d.get("residual_turn_corr")
+        if self.response is None or rho is None or rho <= 0.5:
+            return ""
+        why = "; de-lagged with tau %.1f ms (sensor_bandwidth_hz), the residuals still follow each other (rho %.2f" % (
+            1e3 * self.response["tau_s"][0], rho)
+        if turn is not None and abs(turn) > 0.3:
+            return why + ", with the turn rate %.2f): the sensor's response is not that one (a wrong bandwidth, or more " \
+                "than one pole); fluxcal fit --lag auto on a fluxcal capture estimates tau or says it is not first order" % turn
+        return why + "): axes that lag differently, or a field that moves; fluxcal fit --lag auto on a fluxcal " \
+            "capture estimates per-axis taus"
 
     def _widen(self, cal):
         # residuals correlated beyond chance (rho > 2 / sqrt(pairs)): fewer independent samples
@@ -296,6 +318,15 @@ class Session:
             rho = min(rho, _MAX_RHO)
             d["predicted_error_white"] = d["predicted_error"]
             d["predicted_error"] = d["predicted_error"] * math.sqrt((1.0 + rho) / (1.0 - rho))
+        if self.response is not None and d.get("predicted_error") is not None:
+            # de-lagged with a tau known to tau_sigma: a lag of that much may be left, reading |B|
+            # short by B (sigma w)^2 / 2 (gates.py gate_dps). The fit takes its mean into the field;
+            # what follows the squared turn rate from sample to sample is left: its sd over the
+            # accepted pairs, (w T)^2 per period T, gives B sigma^2 sd(w^2) / 2, added in quadrature
+            per = self.response["tau_sigma_s"][0] * 1000.0 / self.period_ms
+            e = 0.5 * cal.field * per * per * self.turn_sd
+            d["predicted_error_response"] = round(e, 4)
+            d["predicted_error"] = math.sqrt(d["predicted_error"] ** 2 + e * e)
 
     def _fail_fast(self, reason, message):
         # most samples of a couple of seconds or more turned faster than the gate: that,
