@@ -247,3 +247,19 @@ def test_a_recording_from_a_calibrated_handheld_is_mapped_as_such(tmp_path):
     cal.write_text(json.dumps({"matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "offset": [0, 0, 0], "field": 48000.0}))
     line = one_line_error(fluxcal("map", tmp_path / "s.npz", "--cal", cal, "-o", tmp_path / "map"))
     assert "1 readings of this recording came from the handheld's flash log" in line, line
+
+
+def test_the_metronome_beeps_each_metre_at_the_pace_and_twice_at_the_line_end(capsys):
+    from desktop.cli.survey import _Metronome
+    beat = _Metronome(dict(width_m=2.0, length_m=3.0, spacing_m=1.0, zigzag=True, pace_s_per_m=1.5))
+    beat.tick(100.0)                    # no line begun: silent
+    beat.mark(100.0, 1)                 # line 1 starts
+    heard = []
+    for t in np.arange(100.0, 106.0, 0.0625):   # 1/16 s: exact in binary, as the pace's 1.5 s
+        beat.tick(t)
+        heard += [(round(t - 100.0, 2), line) for line in capsys.readouterr().out.splitlines()]
+    beat.mark(106.0, 2)                 # its end: silent until the next line starts
+    beat.tick(110.0)
+    # at the pace: 1.5, 3.0 and 4.5 s after the line's start mark (the first tick that reaches each)
+    assert heard == [(1.5, "beep 1 m"), (3.0, "beep 2 m"), (4.5, "beep 3 m: line end")], heard
+    assert capsys.readouterr().out == ""
