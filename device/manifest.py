@@ -35,7 +35,8 @@ elif options.runtime == "sim":
 # shipped: warmup.py and moved.py (coefficients from one long warm-up, which the firmware does
 # not fit). tests/test_firmware_files.py checks this list against what the firmware imports.
 package("shared", files=["__init__.py", "calibration.py", "codes.py", "coverage.py", "delag.py", "errors.py",
-                         "fit.py", "iteration.py", "linalg.py", "moments.py", "predicted.py", "prior.py", "quadric.py",
+                         "fit.py", "fixedpoint.py", "iteration.py", "linalg.py", "moments.py", "predicted.py", "prior.py",
+                         "quadric.py",
                          "quick.py", "response.py", "result.py", "solver.py", "start.py", "tempco.py"],
         base_path="..", opt=3)
 

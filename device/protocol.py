@@ -67,11 +67,17 @@ class Protocol:
         self.errors += 1
         self.send({"v": VERSION, "ok": False, "cmd": cmd, "error": code, "msg": msg})
 
-    def event(self, name, fields):
+    def event(self, name, fields, members=""):
+        """An event line; `members` JSON text appended as it is ('"f": 48000.123'): numbers
+        printed from integers, to digits a narrow float cannot hold (survey.py)."""
         out = {"v": VERSION, "ev": name}
         for k in fields:
             out[k] = fields[k]
-        self.send(out)
+        if members:
+            line = json.dumps(out)
+            self.board.serial_write((line[:-1] + ", " + members + "}\n").encode())
+        else:
+            self.send(out)
 
     # ****** input ******
     def poll(self):

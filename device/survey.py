@@ -42,6 +42,7 @@ import os
 from protocol import json_number
 from screen import Screen
 from shared.delag import Delag, configured_tau_s, tau_us
+from shared.fixedpoint import FRACTION_BITS, ExactCorrection, milli_text
 from store import file_path, free_bytes
 
 # re-apply the temperature coefficients when the die moved this much: at 20 ppm/C and
@@ -63,11 +64,10 @@ class Survey:
     def restart(self):
         """Drop the open block (its samples were taken without |h_c|)."""
         self._n = 0
-        self._sx = self._sy = self._sz = self._st = 0
-        self._f = 0.0
+        self._sx = self._sy = self._sz = self._st = self._f = 0
 
     def sample(self, sx, sy, sz, st, f):
-        """Accumulate; at the end of a block return (x, y, z, t) mean codes and mean |h_c|."""
+        """Accumulate; at the end of a block return its sums (x, y, z, t codes; f) and n."""
         self._sx += sx
         self._sy += sy
         self._sz += sz
@@ -76,11 +76,9 @@ class Survey:
         self._n += 1
         if self._n < self.per_block:
             return None
-        d = float(self._n * self.window)
-        out = (self._sx / d, self._sy / d, self._sz / d, self._st / d, self._f / self._n)
+        out = (self._sx, self._sy, self._sz, self._st, self._f, self._n)
         self._n = 0
-        self._sx = self._sy = self._sz = self._st = 0
-        self._f = 0.0
+        self._sx = self._sy = self._sz = self._st = self._f = 0
         self.blocks += 1
         return out
 
@@ -186,7 +184,8 @@ class Output:
         self.scale = None
         self.cal = None            # the calibration in force
         self.cal_now = None        # the calibration at the die temperature (tempco applied)
-        self.cal_w = None          # cal_now in sum units: saves three divisions per sample
+        self.exact_w = None        # cal_now in integers for sums of `window` codes (per sample)
+        self.exact_blk = None      # and for a block's sums (per block)
         self.temp_c = None
         self.cal_temp_warn = False
         self._comp_temp = None
@@ -198,6 +197,7 @@ class Output:
         self.scale = (c["scale_x"], c["scale_y"], c["scale_z"])
         self.screen = Screen(self.scale, c["window"], c["spike_nt"])
         self.delag = Delag(c["window"])
+        self._f_unit = 1000.0 * (1 << FRACTION_BITS) / c["window"]   # nT of a window's sums -> |h_c|'s unit
         if c["log"] and self.log is None:
             self.log = RotatingLog(self.board.root, c["log_file_bytes"], c["log_files"], c["log_reserve_bytes"])
         elif not c["log"] and self.log is not None:
@@ -220,8 +220,7 @@ class Output:
             self.log.close()
 
     def _outputs(self):
-        # |h_c| per sample is only needed when a block goes out (stream or log);
-        # the calibration in sum units saves three divisions per sample
+        # |h_c| per sample is only needed when a block goes out (stream, log or recording)
         want = self.stream != "off" or self.log is not None or self.recorder is not None
         if want and not self._want_f:
             self.survey.restart()   # the open block's samples carry no |h_c|: start a new one
@@ -255,6 +254,7 @@ class Output:
         """The calibration at the die temperature (its tempco applied; docs/temperature.md),
         recomputed when the temperature moved by _TEMP_STEP_C: about 40 float operations."""
         cal = self.cal
+        tau = None
         if cal is not None and cal.tempco is not None and temp is not None:
             # linear beyond the measured range for a few degrees, held there after: a die
             # reading far off (a fault, a hot spot) must not extrapolate the drift without end
@@ -263,11 +263,15 @@ class Output:
             if not force and self._comp_temp is not None and abs(temp - self._comp_temp) < _TEMP_STEP_C:
                 return
             self._comp_temp = temp
+            tau = temp - cal.tempco["t0_c"]
             cal = cal.at_temperature(temp)
         elif not force:
             return
         self.cal_now = cal
-        self.cal_w = cal.scaled_input(self.cfg["window"]) if cal is not None else None
+        # the correction in integers (shared/fixedpoint.py): the same digits on every float width
+        w = self.cfg["window"]
+        self.exact_w = ExactCorrection(self.cal, w, tau) if cal is not None else None
+        self.exact_blk = ExactCorrection(self.cal, w * self.survey.per_block, tau) if cal is not None else None
 
     # ****** per sample: the DRDY ring's reader calls these ******
     def gap(self):
@@ -299,22 +303,28 @@ class Output:
         s = self.session
         if s is not None:
             s.sample(sx, sy, sz)
-        # |h_c| per decimated sample, averaged over the output block (rotation invariant)
+        # |h_c| per decimated sample in 1/256 milli-nT, averaged over the output block
+        # (rotation invariant)
         if self._want_f:
-            cal = self.cal_w
-            if cal is not None:
-                f = cal.magnitude(sx, sy, sz)
+            ex = self.exact_w
+            if ex is not None:
+                f = ex.magnitude(sx, sy, sz)
             else:
                 k = self.scale
-                f = ((sx * k[0]) ** 2 + (sy * k[1]) ** 2 + (sz * k[2]) ** 2) ** 0.5 / self.cfg["window"]
+                f = int(((sx * k[0]) ** 2 + (sy * k[1]) ** 2 + (sz * k[2]) ** 2) ** 0.5 * self._f_unit)
         else:
-            f = 0.0
+            f = 0
         blk = self.survey.sample(sx, sy, sz, st, f)
         if blk is not None:
             self._output(blk)
 
     def _output(self, blk):
-        x, y, z, tc, f = blk
+        sx, sy, sz, st, fs, n = blk
+        d = float(n * self.cfg["window"])
+        x = sx / d
+        y = sy / d
+        z = sz / d
+        tc = st / d
         temp = self.adc.temperature_c(tc)
         self.temp_c = temp
         if self.session is not None:
@@ -339,21 +349,28 @@ class Output:
         if not self._want_f:
             return   # nothing goes out: no stream, no log
         t = self.board.ticks_ms()
-        if cal is not None:
-            bx, by, bz = cal.correct(x, y, z)
+        # h_c and |h_c| in milli-nT, integers: printed digit for digit as CPython's floats
+        ex = self.exact_blk
+        if ex is not None and ex.divisor != n * self.cfg["window"]:
+            ex = self.exact_blk = ExactCorrection(self.cal, n * self.cfg["window"], ex.tau)
+        if ex is not None:
+            b = ex.correct(sx, sy, sz)
         else:
             k = self.scale
-            bx, by, bz = x * k[0], y * k[1], z * k[2]
+            b = (round(x * k[0] * 1000), round(y * k[1] * 1000), round(z * k[2] * 1000))
+        f = (2 * fs + (n << FRACTION_BITS)) // (2 * n << FRACTION_BITS)   # the mean |h_c|, milli-nT (rounded)
         r = json_number
+        txt = milli_text
         if self.stream == "corrected":
-            self.proto.event("data", {"t": t, "b": [r(bx), r(by), r(bz)], "f": r(f), "temp": r(temp, 2),
-                                      "c": [r(x, 2), r(y, 2), r(z, 2)], "cal": cal is not None, "warn": msg})
+            self.proto.event("data", {"t": t, "temp": r(temp, 2), "c": [r(x, 2), r(y, 2), r(z, 2)],
+                                      "cal": cal is not None, "warn": msg},
+                             '"b": [%s, %s, %s], "f": %s' % (txt(b[0]), txt(b[1]), txt(b[2]), txt(f)))
         elif self.stream == "raw":
             self.proto.event("raw", {"t": t, "c": [r(x, 2), r(y, 2), r(z, 2)], "temp": r(temp, 2)})
         if self.recorder is not None:
-            self.recorder.block(t, f)
+            self.recorder.block(t, f / 1000.0)   # nT, as surveylog.py keeps it (to 0.01 nT)
         if self.log is not None and self.session is None:
-            self.log.write("%d,%.3f,%.3f,%.3f,%.3f,%.2f\n" % (t, bx, by, bz, f, temp))
+            self.log.write("%d,%s,%s,%s,%s,%.2f\n" % (t, txt(b[0], 1), txt(b[1], 1), txt(b[2], 1), txt(f, 1), temp))
 
     def status(self):
         """Its part of `status`: the stream, the die temperature, the screen's counts, the log."""

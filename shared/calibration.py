@@ -36,6 +36,7 @@ a slow sensor's lag is undone with before M and b apply; carried along, not appl
 
 import math
 
+from shared.fixedpoint import check_exact, float_pair
 from shared.response import check_response
 
 FORMAT_VERSION = 1
@@ -164,6 +165,26 @@ class Calibration:
         # 5000000.0 there).
         self._b_int = [int(math.floor(b + 0.5)) for b in self.offset]
         self._b_frac = [b - bi for b, bi in zip(self.offset, self._b_int)]
+        self._exact = None   # M and b as exact pairs (exact_pairs)
+
+    def exact_pairs(self):
+        """(3x3, 3) of (m, e): M, b exactly as m * 2**e (shared/fixedpoint.py): the record's, else the floats'."""
+        if self._exact is None:
+            self._exact = ([[float_pair(v) for v in row] for row in self.matrix], [float_pair(v) for v in self.offset])
+        return self._exact
+
+    def _use_exact(self, mp, bp):
+        """The record's exact pairs; the floats too where this float holds them (CPython: all)."""
+        self._exact = (mp, bp)
+        for i in range(9):
+            p = mp[i // 3][i % 3]
+            if int(float(p[0])) == p[0]:      # this float holds it
+                self.matrix[i // 3][i % 3] = math.ldexp(float(p[0]), p[1])
+        for j in range(3):
+            if int(float(bp[j][0])) == bp[j][0]:
+                self.offset[j] = math.ldexp(float(bp[j][0]), bp[j][1])
+                self._b_int[j] = int(math.floor(self.offset[j] + 0.5))
+                self._b_frac[j] = self.offset[j] - self._b_int[j]
 
     def correct(self, x, y, z):
         m = self.matrix
@@ -248,6 +269,7 @@ class Calibration:
             "diagnostics": dict(self.diagnostics),
             "meta": dict(self.meta),
         }
+        d["exact"] = {"matrix": [[list(p) for p in r] for r in self.exact_pairs()[0]], "offset": [list(p) for p in self._exact[1]]}
         if self.tempco is not None:
             tc = dict(self.tempco)
             for k in ("offset_per_c", "gain_per_c", "range_c"):
@@ -278,6 +300,8 @@ class Calibration:
         _check_fields(meta, "meta", _META_NUMBERS, _META_TEXT)
         _check_fields(diagnostics, "diagnostics", _DIAG_NUMBERS, ())
         cal = cls(d["matrix"], d["offset"], d["field"], diagnostics, meta, d.get("tempco"), d.get("response"))
+        if "exact" in d:
+            cal._use_exact(*check_exact(d["exact"], cal.matrix, cal.offset))
         problem = plausibility_problem(cal)
         if problem:
             raise ValueError(problem)

@@ -118,7 +118,7 @@ def test_a_main_loop_failing_every_pass_with_a_calibration_drops_to_safe_mode(tm
         def broken(*a):
             raise TypeError("broken by the calibration")
 
-        dev.app.output.cal_w.magnitude = broken     # the stand-in: the corrected |B| raises on every sample
+        dev.app.output.exact_w.magnitude = broken    # the stand-in: the corrected |B| raises on every sample
         dev.run_until(w.time + 2.0)
         s = ask(w, dev, "status")
         assert s["safe_mode"] and "50 times in a row" in s["safe_mode"] and s["calibrated"] is False

@@ -130,7 +130,7 @@ def units(app, board, out, replay_n):
     cal = None
     blk = None
     while blk is None:
-        blk = output.survey.sample(one[0], one[1], one[2], 0, 48000.0)
+        blk = output.survey.sample(one[0], one[1], one[2], 0, 48000 * 256000)   # |h_c| 48,000 nT in 1/256 milli-nT
     stream = output.stream
     output.stream = "corrected"
     output._outputs()

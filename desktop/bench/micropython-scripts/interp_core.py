@@ -2,7 +2,8 @@
 # {"cal": calibration dict, "fit": [[x, y, z], ...], "spin": [[x, y, z], ...]}, argv[2] the
 # repository root. Fits job["fit"] (add() timed per call), solves it (timed), and prints one
 # JSON line: us per add, ms per solve, its iterations, and Calibration.magnitude of every
-# spin code under job["cal"] (the calibration CPython fitted) as repr strings.
+# spin code under job["cal"] (the calibration CPython fitted) as repr strings, and the
+# survey's integer |h_c| of each (shared/fixedpoint.py: 1/256 milli-nT).
 import json
 import sys
 import time
@@ -10,6 +11,7 @@ import time
 sys.path.insert(0, sys.argv[2])
 from shared.calibration import Calibration  # noqa: E402
 from shared.fit import EllipsoidFit  # noqa: E402
+from shared.fixedpoint import ExactCorrection  # noqa: E402
 
 try:
     ticks_us, ticks_diff = time.ticks_us, time.ticks_diff
@@ -32,5 +34,7 @@ t0 = ticks_us()
 cal = fit.solve(field=job["field"])
 solve_ms = ticks_diff(ticks_us(), t0) / 1000
 ref = Calibration.from_dict(job["cal"])
+exact = ExactCorrection(ref, 1)
 print(json.dumps({"add_us": add_us, "solve_ms": solve_ms, "iterations": cal.diagnostics["iterations"],
-                  "magnitude": [repr(ref.magnitude(x, y, z)) for x, y, z in job["spin"]]}))
+                  "magnitude": [repr(ref.magnitude(x, y, z)) for x, y, z in job["spin"]],
+                  "survey": [exact.magnitude(x, y, z) for x, y, z in job["spin"]]}))

@@ -1,0 +1,40 @@
+# Stand-ins around device/survey.py's Output where it runs alone (pico_survey.py here,
+# tests/micropython/survey_exact.py): the board, the serial line, the ADC's die temperature
+# and a spike screen that passes every sample, as the window sums given.
+
+
+class Board:
+    root = ""
+
+    def ticks_ms(self):
+        return 0
+
+
+class Line:
+    """The serial line: each event's members (the numbers printed from integers) to `out`."""
+
+    def __init__(self, out):
+        self.out = out
+
+    def event(self, name, fields, members=""):
+        self.out(members)
+
+
+class Die:
+    def __init__(self, temp):
+        self.temp = temp
+
+    def temperature_c(self, code):
+        return self.temp
+
+
+class Passes:
+    clipped = 0
+    spikes = 0
+
+    def push(self, sx, sy, sz, st):
+        self.x, self.y, self.z, self.t = sx, sy, sz, st
+        return True
+
+    def reset(self):
+        pass

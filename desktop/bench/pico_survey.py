@@ -1,0 +1,79 @@
+"""The survey output's cost on the emulated Raspberry Pi Pico: cycles per decimated sample.
+
+    python -m desktop.bench.pico_survey                      # this checkout's device/ and shared/
+    python -m desktop.bench.pico_survey --source OTHER_TREE  # another checkout's, to compare
+
+What: micropython-scripts/pico_survey.py runs device/survey.py's Output (stream corrected,
+the realistic instrument's calibration, window 2, 10 samples a block, 400 window sums of a
+spin) on the rp2 port's firmware in the RP2040 emulator, the modules as .mpy from the Pico's
+own mpy-cross: emulated time per decimated sample through Output.sample (block outputs
+included), per |h_c| alone, per block output alone; x 125 gives cycles (125 MHz). The
+stand-ins (serial line, screen, die) cost a little of their own; the same in both trees.
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+from desktop.devicesim.pico_board import PicoBoard
+from desktop.firmware.files import REPO
+from desktop.firmware.interpreters import pico_parts
+from desktop.methods import fit_array
+from desktop.sim.instrument import realistic_instrument
+
+SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "micropython-scripts", "pico_survey.py")
+STAND_INS = os.path.join(os.path.dirname(SCRIPT), "survey_stand_ins.py")
+MHZ = 125
+DEVICE = ("survey", "protocol", "screen", "store", "config")
+
+
+def _disk(folder, source, job):
+    """The modules Output needs, from `source`, as .mpy for the Pico; the scripts; the job."""
+    cross = pico_parts()["mpy_cross"]
+    os.makedirs(os.path.join(folder, "shared"))
+    pairs = [(os.path.join(source, "shared", n), os.path.join("shared", n))
+             for n in sorted(os.listdir(os.path.join(source, "shared"))) if n.endswith(".py")]
+    pairs += [(os.path.join(source, "device", n + ".py"), n + ".py") for n in DEVICE]
+    pairs += [(SCRIPT, "pico_survey.py"), (STAND_INS, "survey_stand_ins.py")]
+    for src, rel in pairs:
+        subprocess.run([cross, "-o", os.path.join(folder, rel[:-3] + ".mpy"), src], check=True)
+    with open(os.path.join(folder, "job.json"), "w") as fh:
+        json.dump(job, fh)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(prog="python -m desktop.bench.pico_survey", description=__doc__.splitlines()[0])
+    p.add_argument("--source", default=REPO, help="the tree whose device/ and shared/ run (default: this one)")
+    args = p.parse_args(argv)
+    fit_codes, spin, field = realistic_instrument()
+    cal = fit_array(fit_codes.astype(float), field=field)
+    window = 2
+    rng = np.random.default_rng(1)
+    sums = (spin[:400] * window + rng.integers(0, window, size=(400, 3))).tolist()
+    job = {"cal": cal.to_dict(), "window": window, "per_block": 10, "sums": sums}
+    with tempfile.TemporaryDirectory(prefix="fluxcal-pico-survey-") as tmp:
+        disk = os.path.join(tmp, "disk")
+        _disk(disk, os.path.abspath(args.source), job)
+        with PicoBoard(os.path.join(tmp, "pico.flash")) as board:
+            r = subprocess.run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", disk, ":",
+                                "+", "exec", "import sys; sys.path.insert(0, '/disk'); import pico_survey"],
+                               capture_output=True, text=True, timeout=1800)
+    if r.returncode:
+        print("the Pico run failed: %s" % (r.stdout + r.stderr).strip()[-800:], file=sys.stderr)
+        return 1
+    got = json.loads(r.stdout.splitlines()[-1])
+    print("| survey output on the emulated Pico (%s, %s) | emulated us | cycles |" % (got["path"], args.source))
+    print("|---|---|---|")
+    for key, label in (("per_sample", "per decimated sample (Output.sample, block outputs included)"),
+                       ("magnitude", "|h_c| alone"), ("block", "a block's output alone (correct, format the event)")):
+        print("| %s | %.1f | %s |" % (label, got[key], "{:,}".format(round(got[key] * MHZ))))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,34 @@
+# Runs under each interpreter: device/survey.py's Output (its |h_c| per sample, block averages
+# and data events, the correction in shared/fixedpoint.py) on the stand-ins of
+# desktop/bench/micropython-scripts/survey_stand_ins.py (every sample passes, as the window sums
+# given). argv[1] a JSON case {"cal": record, "window": n, "per_block": n,
+# "temp": C or null, "sums": [[sx, sy, sz], ...]}, argv[2] the repository root. Prints the
+# "b" and "f" members of every data event as sent, a line each (kept, they would scatter
+# over the heap between collections and leave no room for one long line).
+import json
+import sys
+
+sys.path.insert(0, sys.argv[2] + "/device")
+sys.path.insert(0, sys.argv[2] + "/desktop/bench/micropython-scripts")
+sys.path.insert(0, sys.argv[2])
+from config import defaults  # noqa: E402
+from shared.calibration import Calibration  # noqa: E402
+from survey import Output  # noqa: E402
+from survey_stand_ins import Board, Die, Line, Passes  # noqa: E402
+
+
+with open(sys.argv[1]) as fh:
+    case = json.load(fh)
+cfg = defaults()
+cfg["window"] = case["window"]
+cfg["decim"] = max(cfg["decim"], case["window"])
+cfg["log"] = False
+o = Output(Board(), Line(print))
+o.adc = Die(case["temp"] if case["temp"] is not None else 25.0)
+o.configure(cfg, cfg["survey_hz"] * case["per_block"])
+o.screen = Passes()
+o.temp_c = case["temp"]          # the die's temperature known from the start
+o.use(Calibration.from_dict(case["cal"]))
+o.set_stream("corrected")
+for sx, sy, sz in case["sums"]:
+    o.sample(sx, sy, sz, 0)
