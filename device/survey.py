@@ -368,7 +368,7 @@ class Output:
         elif self.stream == "raw":
             self.proto.event("raw", {"t": t, "c": [r(x, 2), r(y, 2), r(z, 2)], "temp": r(temp, 2)})
         if self.recorder is not None:
-            self.recorder.block(t, f / 1000.0)   # nT, as surveylog.py keeps it (to 0.01 nT)
+            self.recorder.block(t, f)
         if self.log is not None and self.session is None:
             self.log.write("%d,%s,%s,%s,%s,%.2f\n" % (t, txt(b[0], 1), txt(b[1], 1), txt(b[2], 1), txt(f, 1), temp))
 

@@ -83,11 +83,10 @@ class Recorder:
             self.flush(close=True)
 
     def block(self, t, f):
-        """An output block (its ticks_ms, its mean |B| in nT) while recording."""
+        """An output block (its ticks_ms, its mean |B| in milli-nT: an int, survey.py's) while
+        recording; kept in hundredths of a nT, rounded in integers."""
         self.records += 1
-        # whole nT and hundredths apart: f * 100 in a 32-bit float would step by 0.5 (0.005 nT)
-        whole = int(f)
-        self._append(self.board.ticks_diff(t, self.t0), whole * 100 + int((f - whole) * 100.0 + 0.5))
+        self._append(self.board.ticks_diff(t, self.t0), (f + 5) // 10)
 
     def press(self, ev):
         """A short press marks a line's start or end (at the press, not the release); a long one
