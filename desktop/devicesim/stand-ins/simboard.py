@@ -134,6 +134,16 @@ class Board:
             else:
                 self.irq_handler(self.irq_pin)
 
+    def sleep_ms(self, ms):
+        """time.sleep_ms as the port's mp_hal_delay_ms: the core waits for interrupts until the
+        deadline, so the DRDY handler runs meanwhile (app.App.wait sleeps between passes). Each
+        idle() ends at the next DRDY or the 1 ms tick; the count bounds a world that stands still."""
+        end = self.now_us + ms * 1000
+        n = 4 * ms + 4
+        while self.now_us < end and n > 0:
+            self.idle()
+            n -= 1
+
     def sleep_us(self, us):
         if us > 0:
             self.link.sleep_us(us)

@@ -1,6 +1,7 @@
 # Stand-in for MicroPython's `time` module on the simulated handheld, from its documentation
 # (docs.micropython.org library/time): the ticks functions wrap at 2**30 as on every port
-# (ticks_diff and ticks_add do the modular arithmetic), sleeps let the world's time pass,
+# (ticks_diff and ticks_add do the modular arithmetic), sleeps let the world's time pass (sleep_ms
+# with the DRDY interrupt serviced, as the port's does),
 # and time() counts from 2021-01-01 00:00 in seconds since 1970, as the rp2 port's unset RTC
 # does (checked on its firmware in the emulated Pico: 1609459200 at power-on). Not a module of
 # the desktop package.
@@ -37,7 +38,7 @@ def sleep_us(us):
 
 
 def sleep_ms(ms):
-    _board.sleep_us(ms * 1000)
+    _board.sleep_ms(ms)
 
 
 def sleep(seconds):
