@@ -14,11 +14,12 @@ field for want of coverage, --accept-anyway does not lift the refusal.
 The cause, in this order:
 - coverage: the samples' observability (the spread's smallest / largest eigenvalue) below
   the firmware's acceptance minimum: turning about all axes is the fix;
-- lag: correlated residuals that follow the square of the turn rate. A sensor (or an ADC
+- lag: correlated residuals that follow the square of the turn rate (desktop/methods/turn_rate.py,
+  the check the report's verdict makes too). A sensor (or an ADC
   window) that lags a turning field reads |h| low by B (tau w)^2 / 2
   (desktop/methods/residuals.py), so its residuals fall as the rate w grows; turning more
   slowly is the fix. A MEMS chip's errors follow the orientation instead (correlation ~0 on
-  the recordings in ../shared/data/real, -0.97 for the Mag648 turned by hand);
+  the recordings in ../shared/data/real, -0.92 for the Mag648 turned by hand in docs/simulator.md);
 - correlated: residuals that follow each other but not the rate: errors of the orientation
   or the time (a sensor not linear to within its noise, iron that moves with it, a field that
   changes), which turning more slowly does not remove;
@@ -27,10 +28,9 @@ The cause, in this order:
 
 import math
 
-import numpy as np
-
 from desktop.methods import correct_array
 from desktop.methods.residuals import honest_error
+from desktop.methods.turn_rate import rate_effect
 from shared.codes import DEGENERATE_COVERAGE, PREDICTED_ERROR_TOO_HIGH, QUICK
 from shared.result import MAX_ERROR_SHARE
 
@@ -59,17 +59,10 @@ def predicted_error(cal, h, pinned):
 
 
 def rate_correlation(cal, h):
-    """Correlation of the residuals |h_c| - F with the squared turn rate of h_c (per sample)."""
-    c = correct_array(cal, h)
-    mag = np.linalg.norm(c, axis=1)
-    if len(c) < 3 or not (mag > 0).all():
-        return 0.0
-    u = c / mag[:, None]
-    rate_sq = np.sum((u[2:] - u[:-2]) ** 2, axis=1) / 4.0     # central difference, rad^2 per sample^2
-    r = mag[1:-1] - cal.field
-    if not (r.std() > 0 and rate_sq.std() > 0):
-        return 0.0
-    return float(np.corrcoef(r, rate_sq)[0, 1])
+    """Correlation of the residuals |h_c| - F, less their direction's mean, with the squared turn
+    rate of h_c (per sample): desktop/methods/turn_rate.py's, as the report's verdict finds it."""
+    effect = rate_effect(correct_array(cal, h), cal.field)
+    return 0.0 if effect is None else effect.correlation
 
 
 def cause(cal, h, honest):

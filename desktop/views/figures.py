@@ -16,12 +16,12 @@ import math
 
 import numpy as np
 
+from desktop.methods.turn_rate import ERR_COLS, ERR_ROWS, error_by_direction, lon_z, rate_effect, rate_residuals
 from desktop.views.sphere import SphereMap, describe, largest_gap
 
 LONGITUDES = ((-180, "-X"), (-90, "-Y"), (0, "+X"), (90, "+Y"), (180, "-X"))
 GREYS = {"empty": "1.0", "some": "0.65", "full": "0.3"}
 RES_COLS, RES_ROWS = 360, 120      # the coverage image's pixels: fine enough for the cells' borders
-ERR_COLS, ERR_ROWS = 36, 12        # bins of the error map: 432 equal areas, ~95 square degrees each
 
 
 _CELLS = {}
@@ -42,12 +42,6 @@ def _frame(ax):
     ax.set_yticks([-1, 0, 1])
     ax.set_yticklabels(["-Z", "z = 0", "+Z"])
     ax.set_xlabel("longitude about Z (equal-area map: every square the same share of the sphere)")
-
-
-def _lonz(d):
-    d = np.asarray(d, dtype=float)
-    n = np.linalg.norm(d, axis=-1)
-    return np.degrees(np.arctan2(d[..., 1], d[..., 0])), d[..., 2] / n
 
 
 def draw_coverage(ax, counts, edge, cap, now=None):
@@ -77,12 +71,12 @@ def draw_coverage(ax, counts, edge, cap, now=None):
                Patch(facecolor=GREYS["empty"], edgecolor="k", label="empty")]
     gap = largest_gap(list(counts), edge)
     if gap is not None and gap.centre is not None:
-        lon, z = _lonz(gap.centre)
+        lon, z = lon_z(gap.centre)
         ax.plot(lon, z, marker="X", ms=14, mfc="tab:cyan", mec="k", ls="none")
         handles.append(Line2D([], [], marker="X", ms=10, mfc="tab:cyan", mec="k", ls="none",
                               label="largest gap: %s (%.0f %%)" % (describe(gap.centre), 100 * gap.fraction)))
     if now is not None and any(now):
-        lon, z = _lonz(now)
+        lon, z = lon_z(now)
         ax.plot(lon, z, marker="o", ms=14, mfc="none", mec="tab:purple", mew=3, ls="none")
         handles.append(Line2D([], [], marker="o", ms=10, mfc="none", mec="tab:purple", mew=3, ls="none",
                               label="the sensor now"))
@@ -103,24 +97,6 @@ def coverage_figure(plt, counts, edge, cap, now=None, title=None):
               title="a square at +Z fills while the\nsensor's +Z axis points along\nthe Earth's field", title_fontsize=8)
     fig.tight_layout()
     return fig
-
-
-def _bins(corrected):
-    lon, z = _lonz(corrected)
-    col = np.clip(((lon + 180.0) / 360.0 * ERR_COLS).astype(int), 0, ERR_COLS - 1)
-    row = np.clip(((1.0 - z) / 2.0 * ERR_ROWS).astype(int), 0, ERR_ROWS - 1)
-    return row * ERR_COLS + col
-
-
-def error_by_direction(corrected, field):
-    """(mean |h_c| - field per equal-area bin, NaN where no sample fell; (rows, cols) array, nT)."""
-    flat = _bins(corrected)
-    resid = np.linalg.norm(corrected, axis=1) - field
-    total = np.bincount(flat, weights=resid, minlength=ERR_ROWS * ERR_COLS)
-    n = np.bincount(flat, minlength=ERR_ROWS * ERR_COLS)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.where(n > 0, total / np.maximum(n, 1), np.nan)
-    return mean.reshape(ERR_ROWS, ERR_COLS)
 
 
 def error_figure(plt, corrected, field):
@@ -153,47 +129,6 @@ def error_figure(plt, corrected, field):
     return fig
 
 
-def rotation_rate(corrected, t):
-    """The turn rate at each sample but the first, (N - 1,): the angle from the previous direction
-    over the time between them, degrees per unit of t."""
-    u = corrected / np.linalg.norm(corrected, axis=1)[:, None]
-    dot = np.clip(np.sum(u[1:] * u[:-1], axis=1), -1.0, 1.0)
-    dt = np.diff(np.asarray(t, dtype=float))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rate = np.degrees(np.arccos(dot)) / dt
-    return rate
-
-
-def rate_residuals(corrected, field, t):
-    """(rate, residual) at each sample but the first, the residual less its direction's mean (the
-    error map's bin): the orientations a hand turns fast through must not pass for a rate effect."""
-    rate = rotation_rate(corrected, t)
-    resid = np.linalg.norm(corrected, axis=1) - field
-    bins = _bins(corrected)
-    mean = np.nan_to_num(error_by_direction(corrected, field).ravel())
-    r = (resid - mean[bins])[1:]
-    ok = np.isfinite(rate)
-    return rate[ok], r[ok]
-
-
-def rate_effect(corrected, field, t):
-    """How much |B| reads low as the sensor turns faster: a sensor that lags the turn, or a block
-    mean of turning vectors, shortens |B| by ~ w^2 (docs/experiments/lag.md). Fits
-    |h_c| - field = a + b (w / w90)^2 on the samples (their direction's mean removed) and returns
-    (b, its standard error, w90): the shift in nT at the 90th-percentile rate w90; None with
-    fewer than 20 samples or no motion."""
-    rate, r = rate_residuals(corrected, field, t)
-    if len(rate) < 20 or not np.ptp(rate) > 0:
-        return None
-    w90 = float(np.percentile(rate, 90))
-    x = (rate / w90) ** 2 if w90 > 0 else rate ** 2
-    a = np.vstack([np.ones_like(x), x]).T
-    coef, *_ = np.linalg.lstsq(a, r, rcond=None)
-    resid_fit = r - a @ coef
-    cov = np.linalg.pinv(a.T @ a) * (resid_fit @ resid_fit) / max(1, len(r) - 2)
-    return float(coef[1]), float(math.sqrt(max(0.0, cov[1, 1]))), w90
-
-
 def rate_figure(plt, corrected, field, t, timed):
     rate, r = rate_residuals(corrected, field, t)
     fig, ax = plt.subplots(figsize=(8, 4.5))
@@ -212,7 +147,7 @@ def rate_figure(plt, corrected, field, t, timed):
     effect = rate_effect(corrected, field, t)
     title = "Residual against rotation rate"
     if effect is not None:
-        title += ": %+.3f nT (+- %.3f) at %.3g %s" % (effect[0], effect[1], effect[2], unit)
+        title += ": %+.3f nT (+- %.3f) at %.3g %s" % (effect.slope, effect.se, effect.w90, unit)
     ax.set_title(title)
     ax.set_xlabel("rotation rate (%s)" % unit)
     ax.set_ylabel("|h_c| - field - its direction's mean (nT)")

@@ -7,13 +7,14 @@
 The verdict names the predicted full-sphere error (what the calibration is
 good to where the samples did not go), then what would bring it down: the
 coverage (the largest gap named, desktop/views/sphere.py) and the rotation rate
-(a residual that grows as w^2: a lagging or smearing sensor, figures.rate_effect).
+(a residual that grows as w^2: a lagging or smearing sensor, desktop/methods/turn_rate.py, the
+check `fluxcal fit`'s refusal makes too).
 """
 
 import numpy as np
 
 from desktop.views.coverage_text import guidance
-from desktop.views.figures import rate_effect
+from desktop.methods.turn_rate import rate_effect
 from desktop.views.sphere import largest_gap
 from shared.coverage import Coverage
 
@@ -76,7 +77,7 @@ def verdict(predicted_nt, counts, edge, corrected, field, t, timed=True, min_cov
     slower = None
     effect = rate_effect(corrected, field, t)
     if effect is not None:
-        b, se, w90 = effect
+        b, se, w90 = effect.slope, effect.se, effect.w90
         # |B| low by more than three standard errors and a tenth of the predicted error at the
         # faster turns: the turning, not the noise, sets it (lag and smearing only shorten |B|)
         if b < -3 * se and -b > 0.1 * (predicted_nt or 0.0):
