@@ -33,7 +33,8 @@ RULES = {
     "desktop/devicesim": (("numpy",), ("desktop.sim", "desktop.firmware", CODES)),
     "desktop/experiments": (("numpy", "matplotlib"), ("shared", "desktop.sim", "desktop.methods",
                                                       "desktop.formats")),
-    "desktop/views": (("numpy", "matplotlib"), ("shared",)),
+    # desktop.methods: the turn-rate check the report's verdict shares with fit's refusal (turn_rate.py)
+    "desktop/views": (("numpy", "matplotlib"), ("shared", "desktop.methods")),
     "desktop/survey": (("numpy", "matplotlib"), ("shared", "desktop.formats", "desktop.sim.field")),
     "desktop/demo": (("numpy", "matplotlib"), ("desktop.sim", "desktop.methods", "desktop.devicesim",
                                                "desktop.firmware", "desktop.views", CODES)),
