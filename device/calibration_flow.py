@@ -21,7 +21,6 @@ A session ends early with reason "fault" (health.py) or "internal_error" (bootgu
 """
 
 import gc
-import math
 import sys
 
 import led as ledp
@@ -210,33 +209,11 @@ class CalibrationFlow:
 
     def _worse_than_current(self, new, s):
         """(new, in force) predicted errors, nT, when a full calibration is predicted no better than
-        the calibration in force is on today's samples; else None.
-
-        On the session's last samples the one in force misfits by `stale`, the new one by `fresh`:
-        stale^2 - fresh^2 is the mean square of their difference, the errors of both (e_prev^2 +
-        e_new^2) and a drift D^2 since the one in force was made. Only a drift beyond three
-        standard errors of that difference (2 fresh sqrt((stale^2 - fresh^2) / n)) counts: then the
-        one in force is in error by sqrt(e_prev^2 + D^2) now, and a drifted sensor's new calibration
-        replaces it even with fewer samples. A quick one was compared by the fit itself
-        (not_better); one in force without a predicted error (set-cal) is no bar.
-        """
+        the calibration in force is on today's samples (session.py no_better_than); else None."""
         cur = self.output.cal_now    # as the survey applies it: its temperature coefficients in
         if self.cal is None or cur is None or new.meta.get("kind", FULL) != FULL:
             return None
-        pe = new.diagnostics.get("predicted_error")
-        old = self.cal.diagnostics.get("predicted_error")
-        if not isinstance(pe, (int, float)) or not isinstance(old, (int, float)):
-            return None
-        stale, n = s.recent_rms(cur.scaled_input(s.window))
-        fresh, _ = s.recent_rms(new.scaled_input(s.window))
-        if n:
-            diff = stale * stale - fresh * fresh
-            drift = diff - pe * pe - old * old
-            if drift > 0.0 and drift > 6.0 * fresh * math.sqrt(diff / n):
-                old = math.sqrt(old * old + drift)
-        if not pe >= old:
-            return None
-        return pe, old
+        return s.no_better_than(new, cur, self.cal.diagnostics.get("predicted_error"))
 
     def _with_tempco(self, new):
         """new with temperature coefficients: fitted against the calibration it replaces when

@@ -169,6 +169,34 @@ class Session:
             ss += r * r
         return math.sqrt(ss / n), n
 
+    def no_better_than(self, new, cur, old):
+        """(new, in force) predicted errors, nT, when the full calibration `new` (code units) is
+        predicted no better than `cur`, the calibration in force (its own predicted error `old`),
+        is on today's samples; else None. Here, not in calibration_flow.py: only a session runs it,
+        and its modules leave the heap when it ends.
+
+        On the session's last samples the one in force misfits by `stale`, the new one by `fresh`:
+        stale^2 - fresh^2 is the mean square of their difference, the errors of both (e_prev^2 +
+        e_new^2) and a drift D^2 since the one in force was made. Only a drift beyond three
+        standard errors of that difference (2 fresh sqrt((stale^2 - fresh^2) / n)) counts: then the
+        one in force is in error by sqrt(e_prev^2 + D^2) now, and a drifted sensor's new calibration
+        replaces it even with fewer samples. A quick one was compared by the fit itself
+        (not_better); one in force without a predicted error (set-cal) is no bar.
+        """
+        pe = new.diagnostics.get("predicted_error")
+        if not isinstance(pe, (int, float)) or not isinstance(old, (int, float)):
+            return None
+        stale, n = self.recent_rms(cur.scaled_input(self.window))
+        fresh, _ = self.recent_rms(new.scaled_input(self.window))
+        if n:
+            diff = stale * stale - fresh * fresh
+            drift = diff - pe * pe - old * old
+            if drift > 0.0 and drift > 6.0 * fresh * math.sqrt(diff / n):
+                old = math.sqrt(old * old + drift)
+        if not pe >= old:
+            return None
+        return pe, old
+
     def add_temperature(self, celsius):
         self.temp_sum += celsius
         self.temp_n += 1
