@@ -6,8 +6,11 @@ and what replaced it since (keep-cal, set-cal, clear-cal)."""
 
 import json
 
+import pytest
+
 from desktop.cli.status import last_cal_line
-from tests.device_session import ask, configured, events
+from tests.device_session import ask, events
+from tests.interpreters import need
 
 
 def _final(w):
@@ -23,13 +26,29 @@ def _kept_previous_on_led(led_log, since):
     return False
 
 
-def test_a_worse_button_calibration_keeps_the_one_in_force(tmp_path):
+def _handheld(tmp_path, kind, **cfg):
+    """tests/device_session.py's configured() on `kind`: the firmware in this process or on an interpreter."""
+    from desktop.devicesim.procedure import handheld_config
+    from desktop.devicesim.runners import start_device, write_config
+    from desktop.devicesim.world import make_world
+
+    w = make_world(serial=None, motion="hand", seconds=60.0, seed=4, motion_seed=5, rate=2000)
+    write_config(str(tmp_path), **handheld_config(w.scenario), **cfg)
+    dev = start_device(w, str(tmp_path), kind=kind)
+    dev.run_until(0.5)
+    return w, dev
+
+
+@pytest.mark.parametrize("kind", ["cpython", "micropython"])
+def test_a_worse_button_calibration_keeps_the_one_in_force(tmp_path, kind):
+    if kind != "cpython":
+        need(kind)
     # min_coverage 0.1: the button's press (auto) ends full after a short turn, as an operator
     # in a hurry makes it; the session waits for the second press (auto_finish off)
-    w, dev = configured(tmp_path, "hand", 60.0, min_coverage=0.1, auto_finish=False)
+    w, dev = _handheld(tmp_path, kind, min_coverage=0.1, auto_finish=False)
     ask(w, dev, "start-cal full hold")
     dev.run_until(40.0)
-    first = ask(w, dev, "finish-cal", dt=1.0)["result"]
+    first = ask(w, dev, "finish-cal", dt=2.0)["result"]
     assert first["state"] == "done" and first["in_force"] is True, first
     before = ask(w, dev, "get-cal")["cal"]
     # five seconds of turning: a full calibration with a third of the samples
