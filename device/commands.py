@@ -176,33 +176,10 @@ def repl(app, args):
 
 
 def survey(app, args):
-    """survey start [MAX_BYTES] | stop | info | read OFFSET: a walked survey's marks and flash log
-    (surveylog.py, imported on the first use: a handheld that never surveys never loads it)."""
+    """survey start [MAX_BYTES] | stop | info | read OFFSET: surveylog.py, imported on the first use
+    (a handheld that never surveys never loads it)."""
     import surveylog
-    words = args.split()
-    what = words[0] if words else "info"
-    rec = app.recorder
-    if what == "start" and (len(words) == 1 or len(words) == 2 and words[1].isdigit()):
-        _idle(app)
-        most = int(words[1]) if len(words) == 2 else surveylog.LOG_BYTES
-        rec = surveylog.Recorder(app.board, app.proto, app.board.root, app.button, most)
-        app.recorder = app.output.recorder = rec
-        app.output.set_stream(app.output.stream)    # |B| per block from now, streamed or not
-        return rec.status()
-    if what == "stop" and len(words) == 1:
-        if rec is None:
-            raise ProtocolError(codes.BAD_ARGUMENT, "no survey is recording")
-        rec.stop()
-        app.recorder = app.output.recorder = None
-        app.output.set_stream(app.output.stream)
-        return rec.status()
-    if what == "info" and len(words) == 1:
-        return rec.status() if rec is not None else {"recording": False}
-    if what == "read" and len(words) == 2 and words[1].isdigit():
-        if rec is not None:
-            rec.flush()
-        return surveylog.read_chunk(app.board.root, int(words[1]))
-    raise ProtocolError(codes.BAD_ARGUMENT, "survey takes: start [MAX_BYTES] | stop | info | read OFFSET")
+    return surveylog.command(app, args)
 
 
 def help_(app, args):

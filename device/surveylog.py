@@ -5,6 +5,7 @@
     rec.press(ev)        # the button while recording (app.py): a short press is a line mark
     rec.stop()           # `survey stop`: the log stays on the flash for a pull
     read_chunk(root, offset)   # `survey read OFFSET`: the log's bytes, hex, for the laptop
+    command(app, args)   # the `survey` command (commands.py hands it over on its first use)
 
 The laptop records the streamed |B| (`fluxcal survey`); the log is what a lost
 connection cannot take: `fluxcal survey --resume` or `--pull` completes the file from it.
@@ -26,6 +27,8 @@ import os
 import struct
 
 from button import SHORT
+from protocol import ProtocolError
+from shared import codes
 from store import file_path, free_bytes
 
 NAME = "survey.bin"
@@ -129,3 +132,34 @@ def read_chunk(root, offset):
         f.seek(offset)
         data = f.read(CHUNK)
     return {"offset": offset, "size": size, "data": "".join("%02x" % b for b in data)}
+
+
+def command(app, args):
+    """survey start [MAX_BYTES] | stop | info | read OFFSET (docs/protocol.md)."""
+    words = args.split()
+    what = words[0] if words else "info"
+    rec = app.recorder
+    out = app.output
+    if what == "start" and (len(words) == 1 or len(words) == 2 and words[1].isdigit()):
+        if app.flow.session is not None or rec is not None:
+            raise ProtocolError(codes.BUSY, "calibration in progress; cancel-cal first" if rec is None
+                                else "survey recording; survey stop first")
+        rec = Recorder(app.board, app.proto, app.board.root, app.button, int(words[1]) if len(words) == 2
+                       else LOG_BYTES)
+        app.recorder = out.recorder = rec
+        out.set_stream(out.stream)      # |B| per block from now, streamed or not
+        return rec.status()
+    if what == "stop" and len(words) == 1:
+        if rec is None:
+            raise ProtocolError(codes.BAD_ARGUMENT, "no survey is recording")
+        rec.stop()
+        app.recorder = out.recorder = None
+        out.set_stream(out.stream)
+        return rec.status()
+    if what == "info" and len(words) == 1:
+        return rec.status() if rec is not None else {"recording": False}
+    if what == "read" and len(words) == 2 and words[1].isdigit():
+        if rec is not None:
+            rec.flush()
+        return read_chunk(app.board.root, int(words[1]))
+    raise ProtocolError(codes.BAD_ARGUMENT, "survey takes: start [MAX_BYTES] | stop | info | read OFFSET")
