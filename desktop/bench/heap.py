@@ -42,8 +42,8 @@ PHASES = {"start": "starting the script", "import": "importing", "boot": "bootin
 # --modules: the firmware's modules by when they are imported, each group in an order where a module
 # comes after what it imports (shared.calibration brings shared.response)
 GROUPS = [("at boot (import app)", ["shared.codes", "store", "protocol", "config", "ads1292", "acquisition", "led",
-                                    "health", "bootguard", "button", "screen", "survey", "shared.calibration",
-                                    "commands", "calibration_flow", "app"]),
+                                    "health", "bootguard", "button", "screen", "shared.fixedpoint", "shared.delag",
+                                    "survey", "shared.calibration", "commands", "calibration_flow", "app"]),
           ("when a session starts, dropped when it ends", [
               "shared.errors", "shared.moments", "shared.linalg", "shared.quadric", "shared.iteration", "shared.prior",
               "shared.predicted", "shared.result", "shared.start", "shared.solver", "shared.fit", "shared.coverage",
@@ -181,15 +181,19 @@ def main(argv=None):
 
 
 def print_table(lines, notes, command):
-    """The table of row() lines, the notes and the command (heap.py's and heap_pico.py's)."""
-    print("| interpreter | word | heap given | after boot | calibrating | survey (stream + log) | calibration state |"
-          " smallest heap that boots, calibrates and surveys |")
-    print("|---|---|---|---|---|---|---|---|")
-    for line in lines:
-        print(line)
+    """The table's head and its row() lines, then the notes and the command (heap.py's and heap_pico.py's,
+    which prints the head with lines=[] and command None, each row as its run ends, then the end with
+    lines None)."""
+    if lines is not None:
+        print("| interpreter | word | heap given | after boot | calibrating | survey (stream + log) |"
+              " calibration state | smallest heap that boots, calibrates and surveys |")
+        print("|---|---|---|---|---|---|---|---|")
+        for line in lines:
+            print(line)
     for line in notes:
         print("\nNOTE: " + line)
-    print("\n(command: %s)" % command)
+    if command is not None:
+        print("\n(command: %s)" % command)
 
 
 if __name__ == "__main__":

@@ -2,10 +2,11 @@
 # (desktop/bench/micropython-scripts) and the frame file, the firmware's .mpy image on MICROPYPATH.
 # argv: frames root scale resident(0/1). Boots the App on the loop-back board and runs two full
 # calibrations one after the other, each on the same frames from the file's start (the board
-# rewound, the ring drained, the spike screen reset, the calibration in force cleared). resident=1 imports the session's modules
-# before the App boots, so they stay (calibration_flow.py drops only what a session brought).
-# Prints one JSON line: each calibration's record (less its uptime), whether the session's
-# modules were still imported after each finish, and the heap after each finish.
+# rewound, the ring drained, the spike screen reset, the calibration in force cleared).
+# resident=1 imports the session's modules before the App boots, so they stay
+# (calibration_flow.py drops only what a session brought). Prints one JSON line: each
+# calibration's record (less its uptime), whether the session's modules were still imported
+# after each finish, and the heap after each finish.
 import gc
 import json
 import sys

@@ -1,0 +1,129 @@
+"""The firmware's heap on the emulated Raspberry Pi Pico, beside desktop/bench/heap.py's 32-bit build.
+
+    python -m desktop.bench.heap_pico [--kb 0 100]    # 0: its whole heap; 10-30 wall min a run on 2 cores
+
+What: the same script as heap.py (micropython-scripts/firmware_heap.py: boot, SECONDS calibrating
+on the loop-back board reading real frames from a file, the finish, SECONDS in survey with stream
+and log on) run from the REPL of the rp2 port's own firmware on the emulated RP2040
+(desktop/devicesim/pico_board.py), the firmware as .mpy from the Pico's mpy-cross with
+lib/fitsums.mpy for armv6m, as `fluxcal deploy` installs them.
+How: the Pico's heap is fixed by its build (0 KB asks for its whole heap). A smaller one is
+that heap with a ballast bytearray allocated first, so that N KB are left, the REPL's own state
+included (as heap.py's figures include the unix interpreter's start-up); the figures below have
+the ballast taken out. Each run takes minutes of emulation, so the heaps are the ones asked for,
+not bisected (heap.py bisects the 32-bit build), and each runs once.
+"""
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+from desktop.bench.device import DEFAULT, SCRIPTS, _prepare
+from desktop.bench.heap import SECONDS, print_table, row
+from desktop.devicesim.pico_board import PicoBoard
+from desktop.firmware.image import build_image
+from desktop.firmware.interpreters import pico_parts
+from desktop.firmware.natmod import natmod_path
+
+# the figures firmware_heap.py reports that hold the ballast too
+_WITH_BALLAST = ("harness", "boot", "cal", "cal_peak", "survey", "survey_peak", "heap_total")
+
+
+def _disk(folder, cross, prep):
+    """What the Pico's flash gets: lib/ (the firmware's .mpy, fitsums.mpy), the scripts, the frames
+    (heap.py's, made in `prep`); -> (frame file's name, nT per code, whether fitsums.mpy went on)."""
+    lib = os.path.join(folder, "lib")
+    build_image(lib, runtime="sim", mpy_cross=cross)
+    native = natmod_path("armv6m")
+    if native is not None:
+        shutil.copyfile(native, os.path.join(lib, "fitsums.mpy"))
+    for name in ("firmware_heap.py", "loopboard.py"):
+        subprocess.run([cross, "-o", os.path.join(folder, name[:-3] + ".mpy"), os.path.join(SCRIPTS, name)],
+                       check=True)
+    _lib, frames, scale = _prepare(prep, DEFAULT[0])
+    shutil.copyfile(frames, os.path.join(folder, os.path.basename(frames)))
+    return os.path.basename(frames), scale, native is not None
+
+
+def run_pico(disk, frames, scale, kb, tmp, track=True):
+    """One run of firmware_heap.py on a fresh emulated Pico with `kb` KB of heap (None: all of it);
+    track=False collects only when the heap is full, as a board does (heap.py's bisection)."""
+    rate, decim, window = DEFAULT
+    args = ["firmware_heap", frames, "fs", str(rate), str(decim), str(window), str(SECONDS), repr(scale),
+            "1" if track else "0"]
+    # the ballast after a soft reset (the copy's garbage gone), in pieces if no block is that large;
+    # what it takes is counted from gc.mem_alloc(), its list included
+    code = ("import gc, os, sys\nos.mkdir('/fs')\ngc.collect()\na0 = gc.mem_alloc()\n"
+            "want = a0 + gc.mem_free() - %d if %d else 0\nB = []\nsize = want\n"
+            "while want - (gc.mem_alloc() - a0) > 64:\n"
+            "    try:\n        B.append(bytearray(min(size, want - (gc.mem_alloc() - a0)) - 32))\n"
+            "    except MemoryError:\n        size = max(64, size // 2)\n"
+            "print('ballast', gc.mem_alloc() - a0, len(B))\n"
+            "while sys.argv: sys.argv.pop()\nsys.argv.extend(%r)\nimport firmware_heap\n") % (
+                (kb or 0) * 1024, kb or 0, args)
+    flash = os.path.join(tmp, "pico-%s.flash" % kb)
+    with PicoBoard(flash, idle="jump") as board:
+        r = subprocess.run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", disk + "/.", ":",
+                            "+", "soft-reset", "+", "exec", code], capture_output=True, text=True, timeout=7200)
+    os.remove(flash)
+    lines = r.stdout.splitlines()
+    ballast = [[int(w) for w in ln.split()[1:]] for ln in lines if ln.startswith("ballast ")]
+    got = [ln for ln in lines if ln.startswith("{")]
+    if r.returncode or not ballast or not got:
+        if "MemoryError" in r.stdout + r.stderr and ballast:   # before the script's own try
+            return {"failed": "start"}
+        raise RuntimeError("the Pico run at %s KB failed: %s" % (kb, (r.stdout + r.stderr)[-1500:]))
+    out = json.loads(got[-1])
+    for key in _WITH_BALLAST:
+        if out.get(key):
+            out[key] -= ballast[0][0]
+    out["ballast_pieces"] = ballast[0][1]
+    return out
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(prog="python -m desktop.bench.heap_pico", description=__doc__.split("\n")[0])
+    p.add_argument("--kb", type=int, nargs="*", default=[0, 100],
+                   help="heaps (KB) to run, 0 for the Pico's whole heap (default: 0 100, 100 KB being an"
+                        " ESP32 without PSRAM); each row is printed when its run ends")
+    args = p.parse_args(argv)
+    parts = pico_parts()
+    if parts is None:
+        print("bench.heap_pico: the emulated Pico is not built (make interpreters)")
+        return 1
+    t0 = time.perf_counter()
+    notes = []
+    with tempfile.TemporaryDirectory(prefix="fluxcal-heap-pico-") as tmp:
+        disk, prep = os.path.join(tmp, "disk"), os.path.join(tmp, "prep")
+        os.makedirs(disk)
+        os.makedirs(prep)
+        frames, scale, native = _disk(disk, parts["mpy_cross"], prep)
+        print("## Heap on the emulated Raspberry Pi Pico (firmware .mpy image%s, default %d / %d / %d, loop-back"
+              " board)\n" % (" with fitsums.mpy for armv6m" if native else "", DEFAULT[0], DEFAULT[1], DEFAULT[2]))
+        print("gc.mem_alloc() after gc.collect(), the whole heap less the ballast; one run each. Calibrating: after"
+              " %d s of a hand rotation, just before finish; survey: after %d s more with stream corrected and"
+              " logging on. Peaks: the largest figure after any main-loop pass (the solve inside finish is not"
+              " seen).\n" % (SECONDS, SECONDS))
+        print_table([], [], None)
+        for kb in args.kb:
+            got = run_pico(disk, frames, scale, kb or None, tmp)
+            total = got.get("heap_total")
+            size = kb or (total or 0) // 1024
+            who = "the Pico's whole heap, %d B" % total if not kb and total else "ballast"
+            print(row("rp2 (emulated Pico)", "32-bit", size, who, [got], "not bisected", notes), flush=True)
+            if "harness" in got:
+                notes.append("%s KB: the REPL's state and the harness hold %d B%s" % (
+                    size, got["harness"], "; the ballast took %d pieces (no block was that large)"
+                    % got["ballast_pieces"] if got["ballast_pieces"] > 1 else ""))
+    print_table(None, notes, "python -m desktop.bench.heap_pico%s, %.0f s" % (
+        "" if args.kb == [0, 100] else " --kb " + " ".join(map(str, args.kb)), time.perf_counter() - t0))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
