@@ -31,7 +31,7 @@ def float_eps(name):
 
 
 def heap_bytes(name):
-    """The heap (bytes) a simulated board's interpreter runs with (desktop.devicesim.runners: "320K")."""
+    """The heap (bytes) a simulated board's interpreter runs with (desktop.devicesim.runners.heap_for)."""
     from desktop.devicesim.runners import heap_for
 
     size = heap_for(name).upper()
