@@ -96,13 +96,17 @@ class Delag:
         self.saturated = 0           # samples dropped: a de-lag term no field makes
         self.taus_us = None          # None: off (push is not called)
         self.x = self.y = self.z = self.t = 0
+        self.ex = self.ey = self.ez = 0   # the de-lag terms of the tau steps (set_taus steps_us)
+        self._dk = None
         # the last five samples, oldest first: (x, y, z, temperature) each
         self._h = [[0, 0, 0, 0] for _ in range(5)]
         self.reset()
 
-    def set_taus(self, taus_us, rate, decim):
+    def set_taus(self, taus_us, rate, decim, steps_us=None):
         """De-lag with these per-axis time constants (whole us) at rate / decim samples/s;
-        None switches it off. The held samples are raw, so they stay valid."""
+        None switches it off. The held samples are raw, so they stay valid. steps_us: per-axis
+        tau steps (whole us, each below its tau) whose de-lag terms push also leaves in .ex .ey
+        .ez (shared/tausums.py: the samples at any tau); None: not formed."""
         if taus_us is not None and (len(taus_us) != 3 or min(taus_us) < 0):
             raise ValueError("taus_us must be 3 non-negative integers")
         if taus_us is None or not max(taus_us):
@@ -111,8 +115,14 @@ class Delag:
         if self.taus_us is None:
             self.reset()   # pushes stopped while off: what is held is stale
         self.taus_us = list(taus_us)
-        self._shift, self._k = coefficients(self.taus_us, rate, decim)
-        self._lim = [(_LIMIT // (8 * n) if n else _LIMIT) for n in self._k]
+        if steps_us is not None and (len(steps_us) != 3 or min(steps_us) < 0 or
+                                     max(s - t for s, t in zip(steps_us, taus_us)) > 0):
+            raise ValueError("steps_us must be 3 non-negative integers no larger than the taus")
+        # the steps' coefficients share the taus' shift (no larger than theirs: the same shift)
+        self._shift, k = coefficients(self.taus_us + list(steps_us or ()), rate, decim)
+        self._k = k[:3]
+        self._dk = k[3:] if steps_us is not None else None
+        self._lim = [(_LIMIT // (8 * n) if n else _LIMIT) for n in k]
 
     def reset(self):
         """Forget the held samples (a gap: the next one has no neighbour)."""
@@ -148,6 +158,12 @@ class Delag:
         if vx is None or vy is None or vz is None:
             self.saturated += 1
             return False
+        dk = self._dk
+        if dk is not None:
+            # no larger than the de-lag terms just taken: within the same limits
+            self.ex = _delagged(0, d[0] - b[0], x - a[0], dk[0], lim[3], sh, top)
+            self.ey = _delagged(0, d[1] - b[1], y - a[1], dk[1], lim[4], sh, top)
+            self.ez = _delagged(0, d[2] - b[2], z - a[2], dk[2], lim[5], sh, top)
         self.x = vx
         self.y = vy
         self.z = vz
