@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: test demo bench interpreters clean
+.PHONY: test demo bench interpreters pico-frozen clean
 
 $(STAMP): pyproject.toml setup.py
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -15,6 +15,11 @@ $(STAMP): pyproject.toml setup.py
 # the interpreters a board has, built once from ../shared into build/ (cached)
 interpreters: $(STAMP)
 	$(BIN)/python -m desktop.firmware.interpreters build
+
+# the Pico image with the firmware frozen in (part of `interpreters`; rebuilt when a frozen file
+# changes): build/interpreters/rp2-pico-frozen/firmware.uf2 for a real Pico, firmware.bin
+pico-frozen: $(STAMP)
+	$(BIN)/python -m desktop.firmware.interpreters build rp2-pico rp2-pico-frozen
 
 test: $(STAMP) interpreters
 	$(BIN)/python -m pytest -q -n 2

@@ -317,12 +317,17 @@ def _short(v):
     return t if len(t) <= 40 else t[:37] + "..."
 
 
+# parsed at run time, not a literal: 1e300 is beyond a 32-bit float, where it reads as inf (so the test
+# above is "finite" there), and MicroPython's freezing tool refuses such a literal constant
+_HUGE = float("1e300")
+
+
 def _scalar(v):
     """A JSON scalar a record may carry in an unknown field: a finite number, text, bool or null."""
     if v is None or isinstance(v, bool):
         return True
     if isinstance(v, (int, float)):
-        return -1e300 < v < 1e300   # finite (a 400-digit integer is not a measurement either)
+        return -_HUGE < v < _HUGE   # finite (a 400-digit integer is not a measurement either)
     return isinstance(v, str) and len(v) <= _TEXT_MAX
 
 

@@ -1,12 +1,16 @@
 """The firmware's heap on the emulated Raspberry Pi Pico, beside desktop/bench/heap.py's 32-bit build.
 
     python -m desktop.bench.heap_pico [--kb 0 100]    # 0: its whole heap; 10-30 wall min a run on 2 cores
+    python -m desktop.bench.heap_pico --frozen --kb 100 120     # the image with the firmware frozen in
+    python -m desktop.bench.heap_pico --frozen --smallest 80 120   # bisect between two heaps (KB)
 
 What: the same script as heap.py (micropython-scripts/firmware_heap.py: boot, SECONDS calibrating
 on the loop-back board reading real frames from a file, the finish, SECONDS in survey with stream
 and log on) run from the REPL of the rp2 port's own firmware on the emulated RP2040
 (desktop/devicesim/pico_board.py), the firmware as .mpy from the Pico's mpy-cross with
-lib/fitsums.mpy for armv6m, as `fluxcal deploy` installs them.
+lib/fitsums.mpy for armv6m, as `fluxcal deploy` installs them. --frozen: the rp2-pico-frozen image
+(desktop/firmware/interpreters.py: device/manifest.py frozen in, its bytecode in flash), the
+flash holding only lib/fitsums.mpy besides the scripts and frames.
 How: the Pico's heap is fixed by its build (0 KB asks for its whole heap). A smaller one is
 that heap with a ballast bytearray allocated first, so that N KB are left, the REPL's own state
 included (as heap.py's figures include the unix interpreter's start-up); the figures below have
@@ -30,15 +34,18 @@ from desktop.firmware.image import build_image
 from desktop.firmware.interpreters import pico_parts
 from desktop.firmware.natmod import natmod_path
 
+_IMAGE = {False: ".mpy", True: "frozen"}     # the two firmware images, by `frozen`
 # the figures firmware_heap.py reports that hold the ballast too
 _WITH_BALLAST = ("harness", "boot", "cal", "cal_peak", "survey", "survey_peak", "heap_total")
 
 
-def _disk(folder, cross, prep):
-    """What the Pico's flash gets: lib/ (the firmware's .mpy, fitsums.mpy), the scripts, the frames
-    (heap.py's, made in `prep`); -> (frame file's name, nT per code, whether fitsums.mpy went on)."""
+def _disk(folder, cross, prep, frozen=False):
+    """What the Pico's flash gets: lib/ (the firmware's .mpy unless frozen, fitsums.mpy), the scripts,
+    the frames (heap.py's, made in `prep`); -> (frame file's name, nT per code, whether fitsums.mpy went on)."""
     lib = os.path.join(folder, "lib")
-    build_image(lib, runtime="sim", mpy_cross=cross)
+    os.makedirs(lib, exist_ok=True)
+    if not frozen:
+        build_image(lib, runtime="sim", mpy_cross=cross)
     native = natmod_path("armv6m")
     if native is not None:
         shutil.copyfile(native, os.path.join(lib, "fitsums.mpy"))
@@ -50,24 +57,28 @@ def _disk(folder, cross, prep):
     return os.path.basename(frames), scale, native is not None
 
 
-def run_pico(disk, frames, scale, kb, tmp, track=True):
-    """One run of firmware_heap.py on a fresh emulated Pico with `kb` KB of heap (None: all of it);
-    track=False collects only when the heap is full, as a board does (heap.py's bisection)."""
-    rate, decim, window = DEFAULT
-    args = ["firmware_heap", frames, "fs", str(rate), str(decim), str(window), str(SECONDS), repr(scale),
-            "1" if track else "0"]
-    # the ballast after a soft reset (the copy's garbage gone), in pieces if no block is that large;
-    # what it takes is counted from gc.mem_alloc(), its list included
-    code = ("import gc, os, sys\nos.mkdir('/fs')\ngc.collect()\na0 = gc.mem_alloc()\n"
+def ballast(kb):
+    """MicroPython code that leaves `kb` KB of heap (None or 0: all of it) to what runs after it, the
+    REPL's state included: a ballast in pieces if no block is that large, kept in the global B; what it
+    takes is gc.mem_alloc() - a0, its list included. Run after a reset (no garbage of an earlier step)."""
+    return ("import gc\ngc.collect()\na0 = gc.mem_alloc()\n"
             "want = a0 + gc.mem_free() - %d if %d else 0\nB = []\nsize = want\n"
             "while want - (gc.mem_alloc() - a0) > 64:\n"
             "    try:\n        B.append(bytearray(min(size, want - (gc.mem_alloc() - a0)) - 32))\n"
-            "    except MemoryError:\n        size = max(64, size // 2)\n"
-            "print('ballast', gc.mem_alloc() - a0, len(B))\n"
-            "while sys.argv: sys.argv.pop()\nsys.argv.extend(%r)\nimport firmware_heap\n") % (
-                (kb or 0) * 1024, kb or 0, args)
+            "    except MemoryError:\n        size = max(64, size // 2)\n") % ((kb or 0) * 1024, kb or 0)
+
+
+def run_pico(disk, frames, scale, kb, tmp, track=True, frozen=False):
+    """One run of firmware_heap.py on a fresh emulated Pico with `kb` KB of heap (None: all of it);
+    track=False collects only when the heap is full, as a board does (heap.py's bisection);
+    frozen: on the rp2-pico-frozen image."""
+    rate, decim, window = DEFAULT
+    args = ["firmware_heap", frames, "fs", str(rate), str(decim), str(window), str(SECONDS), repr(scale),
+            "1" if track else "0"]
+    code = ("import os, sys\nos.mkdir('/fs')\n" + ballast(kb) + "print('ballast', gc.mem_alloc() - a0, len(B))\n"
+            "while sys.argv: sys.argv.pop()\nsys.argv.extend(%r)\nimport firmware_heap\n" % (args,))
     flash = os.path.join(tmp, "pico-%s.flash" % kb)
-    with PicoBoard(flash, idle="jump") as board:
+    with PicoBoard(flash, idle="jump", frozen=frozen) as board:
         r = subprocess.run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", disk + "/.", ":",
                             "+", "soft-reset", "+", "exec", code], capture_output=True, text=True, timeout=7200)
     os.remove(flash)
@@ -86,42 +97,88 @@ def run_pico(disk, frames, scale, kb, tmp, track=True):
     return out
 
 
+def smallest(disk, frames, scale, tmp, lo, hi, frozen, step=2):
+    """The smallest heap (KB, a multiple of `step`) in which boot, calibration and survey succeed,
+    bisected between `lo` (assumed to fail) and `hi` (run to check), collecting only when the heap is
+    full (heap.py's smallest(), without its check of every size above: each run is minutes here);
+    -> (KB or None if `hi` fails, [(kb, phase failed or None)] in the order run)."""
+    tried = []
+
+    def ok(kb):
+        got = run_pico(disk, frames, scale, kb, tmp, track=False, frozen=frozen)
+        tried.append((kb, got.get("failed")))
+        return "failed" not in got
+
+    if not ok(hi):
+        return None, tried
+    while hi - lo > step:
+        mid = (lo + hi) // (2 * step) * step
+        if ok(mid):
+            hi = mid
+        else:
+            lo = mid
+    return hi, tried
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m desktop.bench.heap_pico", description=__doc__.split("\n")[0])
     p.add_argument("--kb", type=int, nargs="*", default=[0, 100],
                    help="heaps (KB) to run, 0 for the Pico's whole heap (default: 0 100, 100 KB being an"
                         " ESP32 without PSRAM); each row is printed when its run ends")
+    p.add_argument("--frozen", action="store_true",
+                   help="the image with the firmware frozen in (rp2-pico-frozen) instead of .mpy files")
+    p.add_argument("--compare", action="store_true", help="each heap on both images, the .mpy one first")
+    p.add_argument("--smallest", type=int, nargs=2, metavar=("LO", "HI"),
+                   help="then bisect the smallest heap between LO KB (taken to fail) and HI KB, 2 KB steps")
     args = p.parse_args(argv)
-    parts = pico_parts()
-    if parts is None:
-        print("bench.heap_pico: the emulated Pico is not built (make interpreters)")
+    images = [False, True] if args.compare else [args.frozen]
+    parts = {frozen: pico_parts(frozen=frozen) for frozen in images}
+    if None in parts.values():
+        print("bench.heap_pico: the emulated Pico%s is not built (make interpreters)"
+              % (" with the frozen firmware" if parts.get(True, 1) is None else ""))
         return 1
     t0 = time.perf_counter()
     notes = []
     with tempfile.TemporaryDirectory(prefix="fluxcal-heap-pico-") as tmp:
-        disk, prep = os.path.join(tmp, "disk"), os.path.join(tmp, "prep")
-        os.makedirs(disk)
-        os.makedirs(prep)
-        frames, scale, native = _disk(disk, parts["mpy_cross"], prep)
-        print("## Heap on the emulated Raspberry Pi Pico (firmware .mpy image%s, default %d / %d / %d, loop-back"
-              " board)\n" % (" with fitsums.mpy for armv6m" if native else "", DEFAULT[0], DEFAULT[1], DEFAULT[2]))
+        disks = {}
+        for frozen in images:
+            disk, prep = os.path.join(tmp, "disk%d" % frozen), os.path.join(tmp, "prep")
+            os.makedirs(disk)
+            os.makedirs(prep, exist_ok=True)
+            disks[frozen] = (disk,) + _disk(disk, parts[frozen]["mpy_cross"], prep, frozen)
+        native = all(d[3] for d in disks.values())
+        print("## Heap on the emulated Raspberry Pi Pico (firmware %s%s, default %d / %d / %d, loop-back"
+              " board)\n" % (" and ".join(_IMAGE[f] for f in images), " with fitsums.mpy for armv6m" if native else "",
+                              DEFAULT[0], DEFAULT[1], DEFAULT[2]))
         print("gc.mem_alloc() after gc.collect(), the whole heap less the ballast; one run each. Calibrating: after"
               " %d s of a hand rotation, just before finish; survey: after %d s more with stream corrected and"
               " logging on. Peaks: the largest figure after any main-loop pass (the solve inside finish is not"
               " seen).\n" % (SECONDS, SECONDS))
         print_table([], [], None)
         for kb in args.kb:
-            got = run_pico(disk, frames, scale, kb or None, tmp)
-            total = got.get("heap_total")
-            size = kb or (total or 0) // 1024
-            who = "the Pico's whole heap, %d B" % total if not kb and total else "ballast"
-            print(row("rp2 (emulated Pico)", "32-bit", size, who, [got], "not bisected", notes), flush=True)
-            if "harness" in got:
-                notes.append("%s KB: the REPL's state and the harness hold %d B%s" % (
-                    size, got["harness"], "; the ballast took %d pieces (no block was that large)"
-                    % got["ballast_pieces"] if got["ballast_pieces"] > 1 else ""))
-    print_table(None, notes, "python -m desktop.bench.heap_pico%s, %.0f s" % (
-        "" if args.kb == [0, 100] else " --kb " + " ".join(map(str, args.kb)), time.perf_counter() - t0))
+            for frozen in images:
+                disk, frames, scale, _native = disks[frozen]
+                got = run_pico(disk, frames, scale, kb or None, tmp, frozen=frozen)
+                total = got.get("heap_total")
+                size = kb or (total or 0) // 1024
+                who = "the Pico's whole heap, %d B" % total if not kb and total else "ballast"
+                name = "rp2 %s (emulated Pico)" % _IMAGE[frozen]
+                print(row(name, "32-bit", size, who, [got], "not bisected", notes), flush=True)
+                if "harness" in got:
+                    notes.append("%s, %s KB: the REPL's state and the harness hold %d B%s" % (
+                        _IMAGE[frozen], size, got["harness"], "; the ballast took %d pieces (no block was that"
+                        " large)" % got["ballast_pieces"] if got["ballast_pieces"] > 1 else ""))
+        if args.smallest:
+            for frozen in images:
+                disk, frames, scale, _native = disks[frozen]
+                least, tried = smallest(disk, frames, scale, tmp, args.smallest[0], args.smallest[1], frozen)
+                notes.append("%s: smallest heap that boots, calibrates and surveys (collecting only when full): %s;"
+                             " runs: %s" % (_IMAGE[frozen], "%d KB" % least if least else "more than %d KB"
+                                            % args.smallest[1],
+                                            ", ".join("%d KB %s" % (kb, "ok" if f is None else "failed " + f)
+                                                      for kb, f in tried)))
+    command = " ".join(["python -m desktop.bench.heap_pico"] + (argv if argv is not None else sys.argv[1:]))
+    print_table(None, notes, "%s, %.0f s" % (command, time.perf_counter() - t0))
     return 0
 
 

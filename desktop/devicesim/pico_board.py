@@ -41,10 +41,10 @@ class PicoError(RuntimeError):
 
 
 class PicoBoard:
-    def __init__(self, flash_file, idle="paced", high=(BUTTON_PIN,), world=None, log=None):
-        self.parts = pico_parts()
+    def __init__(self, flash_file, idle="paced", high=(BUTTON_PIN,), world=None, log=None, frozen=False):
+        self.parts = pico_parts(frozen=frozen)     # frozen: the image with the firmware frozen in
         if self.parts is None:
-            raise FileNotFoundError("rp2-pico is not built: make interpreters")
+            raise FileNotFoundError("%s is not built: make interpreters" % ("rp2-pico-frozen" if frozen else "rp2-pico"))
         if idle not in ("paced", "jump"):
             raise ValueError("idle is 'paced' or 'jump', not %r" % (idle,))
         self.flash_file = os.path.abspath(flash_file)

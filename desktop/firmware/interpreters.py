@@ -24,6 +24,10 @@ rp2-pico               the rp2 port's RPI_PICO firmware.bin (Cortex-M0+,   ../sh
                        RP2040 boot ROM and rp2040js (npm, pinned in
                        desktop/devicesim/pico/package-lock.json), run by
                        desktop/devicesim/pico/runner.mjs
+rp2-pico-frozen        the same firmware with the fluxcal firmware frozen  ../shared/rp2 and
+                       in (device/manifest.py: bytecode in flash, not in   device/, shared/
+                       the heap), also as firmware.uf2 for a real Pico;
+                       run by the same runner (pico_parts(frozen=True))
 =====================  ==================================================  ========================
 
 The recipes are ../shared/micropython/SOURCE.md's, ../shared/circuitpython/SOURCE.md's and
@@ -34,6 +38,7 @@ impossible on this machine is reported in one line; the others still build.
 """
 
 import glob
+import hashlib
 import importlib.util
 import os
 import shutil
@@ -41,13 +46,16 @@ import subprocess
 import sys
 import tarfile
 
+from desktop.firmware.files import MANIFEST, firmware_files
+from desktop.firmware.uf2 import to_uf2
+
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SHARED = os.path.join(os.path.dirname(REPO), "shared")
 BUILD = os.path.join(REPO, "build", "interpreters")
 
 # significant bits of the float type each interpreter computes in
 FLOAT_BITS = {"micropython": 53, "micropython-float32": 24, "micropython-reprc": 22, "circuitpython": 22,
-              "qemu-m3": 24, "rp2-pico": 24}
+              "qemu-m3": 24, "rp2-pico": 24, "rp2-pico-frozen": 24}
 UNIX = ("micropython", "micropython-float32", "micropython-reprc", "circuitpython")
 
 _MP_COMMON = ["VARIANT=standard", "MICROPY_PY_BTREE=0", "MICROPY_PY_SSL=0", "MICROPY_SSL_MBEDTLS=0",
@@ -75,6 +83,11 @@ RECIPES = {
     "rp2-pico": ("rp2/micropython-*-rp2-src.tar.xz", "ports/rp2",
                  ["-DPICO_BUILD_DOCS=0", "-DMICROPY_BOARD=RPI_PICO", "-DPICO_NO_PICOTOOL=1"],
                  "firmware.bin", ("arm-none-eabi-gcc", "arm-none-eabi-g++ <cstdlib>", "cmake", "node", "npm")),
+    # the same with MICROPY_FROZEN_MANIFEST=device/manifest.py (given in build(): the checkout's path);
+    # rebuilt when a frozen file changes (_stamp), which recompiles only the frozen content
+    "rp2-pico-frozen": ("rp2/micropython-*-rp2-src.tar.xz", "ports/rp2",
+                        ["-DPICO_BUILD_DOCS=0", "-DMICROPY_BOARD=RPI_PICO", "-DPICO_NO_PICOTOOL=1"],
+                        "firmware.bin", ("arm-none-eabi-gcc", "arm-none-eabi-g++ <cstdlib>", "cmake")),
 }
 PICO_NPM = os.path.join(REPO, "desktop", "devicesim", "pico")     # package.json + package-lock.json
 BOOTROM = os.path.join(SHARED, "rp2", "rp2040-bootrom-B1.bin")
@@ -122,13 +135,18 @@ def interpreter(name):
     return path if os.path.exists(path) and _stamp_ok(name) else None
 
 
-def pico_parts():
+def pico_parts(frozen=False):
     """The emulated Pico's parts, built by build("rp2-pico"), as a dict (firmware, bootrom,
-    node_modules, mpy_cross: paths), or None if it is not built."""
+    node_modules, mpy_cross: paths), or None if it is not built; frozen=True: the firmware is
+    rp2-pico-frozen's (the rest still rp2-pico's)."""
     firmware = interpreter("rp2-pico")
     if firmware is None:
         return None
     out = os.path.dirname(firmware)
+    if frozen:
+        firmware = interpreter("rp2-pico-frozen")
+        if firmware is None:
+            return None
     return {"firmware": firmware, "bootrom": os.path.join(out, os.path.basename(BOOTROM)),
             "node_modules": os.path.join(out, "node", "node_modules"), "mpy_cross": os.path.join(out, "mpy-cross")}
 
@@ -138,6 +156,12 @@ def _stamp(name):
     if name == "rp2-pico":     # a new pin of rp2040js reinstalls it
         with open(os.path.join(PICO_NPM, "package-lock.json")) as fh:
             stamp += " " + fh.read()
+    if name == "rp2-pico-frozen":     # what is frozen: the manifest and every file it names
+        digest = hashlib.sha256()
+        for path in [MANIFEST] + sorted(src for src, _target in firmware_files("micropython")):
+            with open(path, "rb") as fh:
+                digest.update(fh.read())
+        stamp += " frozen " + digest.hexdigest()
     return stamp
 
 
@@ -197,22 +221,25 @@ def build(name, log=print):
         # the version header wants git tags unless CP_VERSION is set; GIT_DIR keeps it out of
         # an enclosing repository (../shared/circuitpython/SOURCE.md)
         env.update(CP_VERSION="10.3.0-alpha.4-185-gcd3da4a5d8", GIT_DIR="/nonexistent")
-    if name == "rp2-pico":     # the banner from the tree's version, not the enclosing repository's commit
+    rp2 = name in ("rp2-pico", "rp2-pico-frozen")
+    if rp2:     # the banner from the tree's version, not the enclosing repository's commit
         env.update(GIT_DIR="/nonexistent")
     out = os.path.join(BUILD, name)
-    if name in ("qemu-m3", "rp2-pico"):
+    if name == "qemu-m3" or rp2:
         steps = [["make", "-j2", "-C", os.path.join(src, "mpy-cross")]]
     else:
         steps = []
-    if name == "rp2-pico":
-        steps += [["cmake", "-S", os.path.join(src, RECIPES[name][1]), "-B", os.path.join(out, "cmake")] + RECIPES[name][2],
-                  ["make", "-j2", "-C", os.path.join(out, "cmake")],
-                  # the real path: with build/ a symlink npm takes the folder for a linked package
-                  ["npm", "ci", "--no-audit", "--no-fund", "--prefix", os.path.realpath(os.path.join(out, "node"))]]
+    if rp2:
+        frozen = ["-DMICROPY_FROZEN_MANIFEST=" + MANIFEST] if name == "rp2-pico-frozen" else []
+        steps += [["cmake", "-S", os.path.join(src, RECIPES[name][1]), "-B", os.path.join(out, "cmake")]
+                  + RECIPES[name][2] + frozen,
+                  ["make", "-j2", "-C", os.path.join(out, "cmake")]]
+    if name == "rp2-pico":   # the real path: with build/ a symlink npm takes the folder for a linked package
+        steps.append(["npm", "ci", "--no-audit", "--no-fund", "--prefix", os.path.realpath(os.path.join(out, "node"))])
         os.makedirs(os.path.join(out, "node"), exist_ok=True)
         for pinned in ("package.json", "package-lock.json"):
             shutil.copy2(os.path.join(PICO_NPM, pinned), os.path.join(out, "node", pinned))
-    else:
+    elif not rp2:
         steps.append(["make", "-j2", "-C", os.path.join(src, RECIPES[name][1])] + RECIPES[name][2])
     os.makedirs(out, exist_ok=True)
     with open(os.path.join(out, "build.log"), "w") as logfile:
@@ -226,6 +253,10 @@ def build(name, log=print):
         shutil.copy2(os.path.join(out, "cmake", "firmware.bin"), _product(name))
         shutil.copy2(os.path.join(src, "mpy-cross", "build", "mpy-cross"), os.path.join(out, "mpy-cross"))
         shutil.copyfile(BOOTROM, os.path.join(out, os.path.basename(BOOTROM)))   # not its read-only mode
+    elif name == "rp2-pico-frozen":     # the image, and the same as a .uf2 for a real Pico's drag and drop
+        shutil.copy2(os.path.join(out, "cmake", "firmware.bin"), _product(name))
+        with open(_product(name), "rb") as fh, open(os.path.join(out, "firmware.uf2"), "wb") as uf2:
+            uf2.write(to_uf2(fh.read()))
     else:
         shutil.copy2(os.path.join(src, RECIPES[name][3]), _product(name))
     with open(os.path.join(out, "recipe"), "w") as fh:

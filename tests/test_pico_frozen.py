@@ -1,0 +1,78 @@
+"""The image with the firmware frozen in (rp2-pico-frozen) on the emulated Pico, in a heap the .mpy
+firmware does not boot in.
+
+Both images get the same flash: a main.py that leaves HEAP_KB of heap (desktop/bench/heap_pico.py's
+ballast, the REPL's state included) and then device/main.py's lines that start the firmware, boot.py,
+and lib/fitsums.mpy as deploy installs it; the .mpy image also the firmware's .mpy in lib/, as
+`fluxcal deploy` installs them. The frozen one boots and answers `status`; the .mpy one runs out of
+memory starting the firmware (its bytecode is in the heap), which app.start records in boot.txt.
+HEAP_KB: `python -m desktop.bench.heap_pico --compare` measured the frozen firmware calibrating and
+surveying in 100 KB and the .mpy one not booting in 120 KB (docs/benchmarks.md).
+"""
+
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from tests.interpreters import need
+
+MPREMOTE = [sys.executable, "-m", "mpremote"]
+HEAP_KB = 120
+
+
+def mpremote(port, *args, timeout=300):
+    r = subprocess.run(MPREMOTE + ["connect", port] + list(args), capture_output=True, text=True, timeout=timeout)
+    assert r.returncode == 0, r.stdout + r.stderr
+    return r.stdout
+
+
+def flash_files(folder, frozen):
+    from desktop.bench.heap_pico import ballast
+    from desktop.firmware.files import DEVICE
+    from desktop.firmware.image import build_image
+    from desktop.firmware.interpreters import pico_parts
+    from desktop.firmware.natmod import natmod_path
+
+    lib = os.path.join(folder, "lib")
+    os.makedirs(lib)
+    if not frozen:
+        build_image(lib, "micropython", pico_parts()["mpy_cross"], march="armv6m")
+    native = natmod_path("armv6m")
+    if native is not None:
+        shutil.copyfile(native, os.path.join(lib, "fitsums.mpy"))
+    shutil.copyfile(os.path.join(DEVICE, "boot_micropython.py"), os.path.join(folder, "boot.py"))
+    with open(os.path.join(DEVICE, "main.py")) as src, open(os.path.join(folder, "main.py"), "w") as fh:
+        fh.write(ballast(HEAP_KB) + src.read())
+
+
+@pytest.mark.parametrize("frozen", [True, False], ids=["frozen", "mpy"])
+def test_the_frozen_firmware_boots_in_a_heap_the_mpy_firmware_does_not(tmp_path, frozen):
+    need("rp2-pico")
+    if frozen:
+        need("rp2-pico-frozen")
+    from desktop.devicesim.pico_board import PicoBoard
+    from desktop.link import LinkError, open_device
+
+    disk = str(tmp_path / "disk")
+    flash_files(disk, frozen)
+    with PicoBoard(str(tmp_path / "pico.flash"), idle="jump", frozen=frozen) as board:
+        mpremote(board.port, "cp", "-r", disk + "/.", ":")
+        n = len(board.events)
+        mpremote(board.port, "reset")                  # a power-up: boot.py, then main.py
+        board.wait_event("boot (watchdog)", after=n)
+        if frozen:
+            dev = open_device(board.port, timeout=30.0)
+            try:
+                assert dev.ask("version")["runtime"] == "micropython-rp2"
+                st = dev.ask("status")
+            finally:
+                dev.close()
+            assert st["calibrated"] is False and st["missed"] == 0, st
+        else:
+            with pytest.raises(LinkError):
+                open_device(board.port, timeout=10.0).close()
+            said = mpremote(board.port, "fs", "cat", ":boot.txt")
+            assert "MemoryError" in said, said
