@@ -66,6 +66,9 @@ SCHEMA = {
     # what is left: the configured tau's relative uncertainty response_tol (gates.py gate_dps)
     "delag": (True, "bool", 0, 0),
     "response_tol": (0.05, "float", 0.0, 1.0),
+    # de-lagged: estimate tau at the finish (shared/tausums.py; four more sums per accepted
+    # sample, a few more solves at the end) and use it, with its own uncertainty
+    "tau_estimate": (True, "bool", 0, 0),
     "quick_min_coverage": (0.1, "float", 0.01, 1.0),  # a quick re-calibration auto-finishes here
     # calibrations this far apart in temperature give the offsets' and gains' coefficients
     "tempco_min_span_c": (2.0, "float", 0.5, 100.0),

@@ -104,6 +104,12 @@ class Gates:
         self.hist = array("i", bytes(4 * 5 * HIST))  # x, y, z, sample index, cell
         self.hist_n = 0
         self.hist_i = 0
+        # the tau estimate (session.py attach): the Delag whose .ex .ey .ez are the current
+        # sample's tau steps, the accumulators they go into, and the accepted ones' steps
+        # beside hist (x, y, z each)
+        self.lag = None
+        self.tau_sums = None
+        self.hist_e = None
         self.back = int(1000 / period_ms) + 1   # samples in one second (backoff)
         self.gate_dps = gate_dps(cfg)
         g = self.gate_dps * math.pi / 180.0 * period_ms / 1000.0
@@ -184,6 +190,15 @@ class Gates:
                 return False
         self.fit.add(sx, sy, sz)
         cov.add_to(cell)
+        ts = self.tau_sums
+        if ts is not None:
+            lg = self.lag
+            ts.add(sx, sy, sz, lg.ex, lg.ey, lg.ez)
+            he = self.hist_e
+            i = self.hist_i * 3
+            he[i] = lg.ex
+            he[i + 1] = lg.ey
+            he[i + 2] = lg.ez
         h = self.hist
         i = self.hist_i * 5
         h[i] = sx
@@ -215,6 +230,9 @@ class Gates:
             if self.seen - h[i + 3] > back:
                 break
             self.fit.remove(h[i], h[i + 1], h[i + 2])
+            if self.tau_sums is not None:
+                he = self.hist_e
+                self.tau_sums.remove(h[i], h[i + 1], h[i + 2], he[j * 3], he[j * 3 + 1], he[j * 3 + 2])
             self.cov.remove_from(h[i + 4])
             self.hist_i = j
             self.hist_n -= 1

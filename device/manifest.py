@@ -16,7 +16,7 @@ if options.runtime == "micropython":
 
 # Every runtime: the application, the ADS1292 driver and the HAL contract.
 for name in ("acceptance", "acquisition", "ads1292", "app", "bootguard", "button", "calibration_flow", "commands",
-             "config", "gates", "hal", "health", "led", "protocol", "screen", "session", "store", "survey",
+             "config", "gates", "hal", "health", "lagfit", "led", "protocol", "screen", "session", "store", "survey",
              "surveylog"):
     module(name + ".py", opt=3)
 
@@ -37,7 +37,7 @@ elif options.runtime == "sim":
 package("shared", files=["__init__.py", "calibration.py", "codes.py", "coverage.py", "delag.py", "errors.py",
                          "fit.py", "fixedpoint.py", "iteration.py", "linalg.py", "moments.py", "predicted.py", "prior.py",
                          "quadric.py",
-                         "quick.py", "response.py", "result.py", "solver.py", "start.py", "tempco.py"],
+                         "quick.py", "response.py", "result.py", "solver.py", "start.py", "tausums.py", "tempco.py"],
         base_path="..", opt=3)
 
 # Entry points: copied to the filesystem's root, never frozen (a user edits or replaces them);

@@ -22,6 +22,7 @@ gates.py's; whether the result may be used, acceptance.py's (set-cal uses it too
 
 import math
 
+import lagfit
 from acceptance import check_calibration
 from gates import HIST, Gates, disturbance_limit
 from shared import codes
@@ -64,6 +65,10 @@ class Session:
         self.response = None if tau is None else {
             "model": "first-order", "tau_s": [t / 1e6 for t in self.taus_us], "source": "given",
             "tau_sigma_s": [cfg["response_tol"] * t / 1e6 for t in self.taus_us]}
+        # the tau estimate (lagfit.py): the Delag's tau steps and the other nodes' sums (None:
+        # not estimated), and the fit (and its unit) the finish solves
+        self.steps_us, self.tau_sums = lagfit.setup(cfg, self.taus_us)
+        self._final = None
         # bound once: the per-sample call allocates nothing
         self.sample = g.sample
         self.break_chain = g.break_chain
@@ -207,11 +212,18 @@ class Session:
             return True
         return self.kind == AUTO and self.coverage() < self.cfg["min_coverage"]
 
+    def attach(self, delag):
+        """The Delag that de-lags this session's samples (survey.py): the tau estimate's steps."""
+        lagfit.attach(self, delag)
+
     def _solve(self, max_iter=60, final=False, independent=1.0):
         # provisional solves of an auto session are full ones: it becomes quick only at the end
         quick = self.kind == QUICK or (final and self.quick())
-        return self.fit.solve(field=None, prior=self.prior if quick else None, scale=self.k, max_iter=max_iter,
-                              refuse_worse=final, independent=independent)
+        # finally the samples at the estimated tau (lagfit.py), in 1/u sum units
+        fit, u = self._final if final and self._final is not None else (self.fit, 1)
+        cal = fit.solve(field=None, prior=self.prior if quick else None, scale=[k / u for k in self.k],
+                        max_iter=max_iter, refuse_worse=final, independent=independent)
+        return cal if u == 1 else cal.scaled_input(1.0 / u)
 
     def tick(self, now_ms, diff):
         """Provisional solve every solve_every_s; returns True if one ran."""
@@ -286,6 +298,7 @@ class Session:
                               " or keep magnets and iron away; the sensor saturates there"
                               % (self.clipped, "" if self.clip_axis is None else " on " + "xyz"[self.clip_axis]))
         try:
+            self._final = lagfit.estimate(self)
             cal = self._solve(final=True)
             d = cal.diagnostics
             if d.get("mode") == RESHAPED or (d.get("mode") == QUICK and d.get("gains", 1) > 1):
@@ -300,7 +313,7 @@ class Session:
         except FitError as e:
             return self._fail_fast(e.reason, str(e))
         self._widen(cal)
-        problem = self.check(cal)
+        problem = self.check(cal) or lagfit.not_first_order(self.response, cal)
         if problem:
             return self._fail_fast(problem[0], problem[1] + self._response_left(cal))
         self.state = DONE
@@ -325,11 +338,13 @@ class Session:
         turn = d.get("residual_turn_corr")
         if self.response is None or rho is None or rho <= 0.5:
             return ""
-        why = "; de-lagged with tau %.1f ms (sensor_bandwidth_hz), the residuals still follow each other (rho %.2f" % (
-            1e3 * self.response["tau_s"][0], rho)
+        est = self.response.get("source") == "estimated"   # lagfit.py: a wrong bandwidth is ruled out
+        why = "; de-lagged with tau %.1f ms (%s), the residuals still follow each other (rho %.2f" % (
+            1e3 * self.response["tau_s"][0], "estimated" if est else "sensor_bandwidth_hz", rho)
         if turn is not None and abs(turn) > 0.3:
-            return why + ", with the turn rate %.2f): the sensor's response is not that one (a wrong bandwidth, or more " \
-                "than one pole); fluxcal fit --lag auto on a fluxcal capture estimates tau or says it is not first order" % turn
+            return why + ", with the turn rate %.2f): the sensor's response is not that one (%s); fluxcal fit --lag " \
+                "auto on a fluxcal capture estimates tau or says it is not first order" % (
+                    turn, "more than one pole" if est else "a wrong bandwidth, or more than one pole")
         return why + "): axes that lag differently, or a field that moves; fluxcal fit --lag auto on a fluxcal " \
             "capture estimates per-axis taus"
 

@@ -247,8 +247,10 @@ class Output:
         else:
             tau = configured_tau_s(c)
             taus = None if tau is None else [tau_us(tau)] * 3
-        self.delag.set_taus(taus, c["rate"], c["decim"])
+        self.delag.set_taus(taus, c["rate"], c["decim"], None if s is None else s.steps_us)
         self._delag_on = self.delag.taus_us is not None
+        if s is not None:
+            s.attach(self.delag)   # its tau estimate reads the steps (shared/tausums.py)
 
     def _compensate(self, temp, force=False):
         """The calibration at the die temperature (its tempco applied; docs/temperature.md),

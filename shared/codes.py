@@ -74,6 +74,7 @@ CANCELLED = "cancelled"             # cancel-cal or the button (also the session
 # Acceptance (device/acceptance.py; set-cal runs it too):
 RMS_TOO_HIGH = "rms_too_high"
 POOR_OBSERVABILITY = "poor_observability"
+RESPONSE_NOT_FIRST_ORDER = "response_not_first_order"   # de-lagged with the best tau, the residuals follow each other
 PREDICTED_ERROR_TOO_HIGH = "predicted_error_too_high"
 FIELD_OUT_OF_RANGE = "field_out_of_range"
 BAD_SCALE = "bad_scale"
