@@ -31,7 +31,13 @@ SEED = 5
 CASES = (
     ("Mag648", {"sensor": "mag648"}, {}, (0.1, 0.5, 1.0)),
     ("Mag648, de-lag off", {"sensor": "mag648"}, {"delag": False}, (0.5, 1.0)),
+    ("Mag648, tau not estimated (tau_estimate off)", {"sensor": "mag648"}, {"tau_estimate": False}, (0.5, 1.0)),
     ("Mag648, bandwidth configured 20 % low (4 Hz)", {"sensor": "mag648"}, {"sensor_bandwidth_hz": 4.0}, (0.5, 1.0)),
+    ("Mag648, bandwidth configured 20 % low (4 Hz), tau not estimated", {"sensor": "mag648"},
+     {"sensor_bandwidth_hz": 4.0, "tau_estimate": False}, (0.5, 1.0)),
+    ("Mag648, bandwidth configured 20 % high (6 Hz)", {"sensor": "mag648"}, {"sensor_bandwidth_hz": 6.0}, (0.5, 1.0)),
+    ("Mag648, bandwidth configured 16 % low (4.2 Hz: between the nodes)", {"sensor": "mag648"},
+     {"sensor_bandwidth_hz": 4.2}, (0.5, 1.0)),
     ("Mag648, axes' bandwidths within 3 %", {"sensor": "mag648", "bandwidth_spread": 0.03}, {}, (0.5, 1.0)),
     ("Mag648 with two poles (same -3 dB)", {"sensor": "mag648", "poles": 2}, {}, (0.5, 1.0)),
     ("Mag649 (not de-lagged: its lag allows the whole gate)", {"sensor": "mag649"}, {}, (0.5, 1.0)),
@@ -51,7 +57,8 @@ def sphere_error(scenario, cal):
 
 
 def run_case(sensor, config, rev_s):
-    """One row's figures: dict of verdict, gate, delag_us, ptp, predicted, real."""
+    """One row's figures: dict of verdict, gate, n, rms, and for a calibration ptp, predicted,
+    real, tau_ms and tau_sigma_ms (its record's response), note (the estimate's)."""
     with tempfile.TemporaryDirectory() as root:
         r = calibrate_and_verify(kind="cpython", root=root, rotate_s=ROTATE_S, spin_s=10.0, rot_rate=rev_s,
                                  spin_rev_s=rev_s, sensor=sensor, seed=SEED, auto_finish=False, **config)
@@ -66,7 +73,9 @@ def run_case(sensor, config, rev_s):
     cal = Calibration.from_dict(body)
     out.update(verdict="done", ptp=r["ptp_cal"], predicted=cal.diagnostics.get("predicted_error"),
                real=sphere_error(r["world"].scenario, cal),
-               tau_ms=None if cal.response is None else 1e3 * float(np.mean(cal.response["tau_s"])))
+               tau_ms=None if cal.response is None else 1e3 * float(np.mean(cal.response["tau_s"])),
+               tau_sigma_ms=None if cal.response is None else 1e3 * float(np.mean(cal.response["tau_sigma_s"])),
+               msg=None if cal.response is None else cal.response.get("estimate"))
     return out
 
 
@@ -81,12 +90,13 @@ def run(out, cases=CASES):
         for rev in rates:
             r = run_case(sensor, config, rev)
             ratio = r["predicted"] / r["real"] if r.get("predicted") and r.get("real") else None
-            rows.append([label, "%.1f" % rev, r["verdict"], _f(r.get("tau_ms"), "%.3f"), _f(r["gate"], "%.0f"),
+            rows.append([label, "%.1f" % rev, r["verdict"], _f(r.get("tau_ms"), "%.3f"),
+                         _f(r.get("tau_sigma_ms"), "%.4f"), _f(r["gate"], "%.0f"),
                          _f(r["n"], "%d"), _f(r["rms"], "%.3f"), _f(r.get("ptp"), "%.2f"),
                          _f(r.get("predicted"), "%.3f"), _f(r.get("real"), "%.3f"), _f(ratio, "%.2f")])
             if r.get("msg"):
                 notes.append("- %s, %.1f rev/s: %s" % (label, rev, r["msg"]))
-    header = ["sensor", "rev/s", "calibration", "tau (ms, record)", "gate (deg/s)", "n", "rms (nT)",
+    header = ["sensor", "rev/s", "calibration", "tau (ms, record)", "tau sigma (ms)", "gate (deg/s)", "n", "rms (nT)",
               "spin PTP (nT)", "predicted (nT)", "real full-sphere (nT)", "predicted / real"]
     text = "\n".join(["## The firmware de-lagging on the simulated handheld: spin PTP (0.1 s blocks) after a "
                       "calibration on 120 s of hand rotation, 1000 SPS, seed 5", "",
