@@ -164,7 +164,7 @@ class CalibrationFlow:
     def _finish(self, s):
         cal, reason, msg = s.finish()
         b = self.board
-        b.busy(SOLVE)
+        b.busy(SOLVE, 1 + s.search_solves)   # and the tau estimate's (lagfit.py)
         result = {"state": s.state, "n": s.fit.n, "coverage": json_number(s.coverage())}
         if cal is None:
             result["reason"] = reason

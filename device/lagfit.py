@@ -67,6 +67,7 @@ def estimate(s):
     nodes = s.tau_sums.sums()
 
     def rms_at(p, q):
+        s.search_solves += 1
         try:
             cal = EllipsoidFit.from_sums(lagrange_sums(centre, nodes, p, q)).solve(
                 field=None, scale=[k / q for k in s.k], max_iter=_ITER)

@@ -69,6 +69,7 @@ class Session:
         # not estimated), and the fit (and its unit) the finish solves
         self.steps_us, self.tau_sums = lagfit.setup(cfg, self.taus_us)
         self._final = None
+        self.search_solves = 0      # the tau estimate's solves at the finish
         # bound once: the per-sample call allocates nothing
         self.sample = g.sample
         self.break_chain = g.break_chain
