@@ -93,15 +93,26 @@ def test_a_response_no_first_order_tau_undoes_is_refused_saying_so(tmp_path, sen
 
 @pytest.fixture(scope="module")
 def cpython_run(tmp_path_factory):
-    return _run(tmp_path_factory.mktemp("cpython"), "cpython", 0.5, 30.0, auto_finish=False)
+    return _run(tmp_path_factory.mktemp("cpython"), "cpython", 0.5, 30.0, auto_finish=False, **BETWEEN_NODES)
+
+
+# configured 16 % low: tau estimated between the nodes, where the search's float steps choose the grid point
+BETWEEN_NODES = {"sensor_bandwidth_hz": 4.2}
 
 
 @pytest.mark.parametrize("name", INTERPRETERS)
 def test_the_same_calibration_on_each_interpreter(name, tmp_path, cpython_run):
     need(name)
-    r = _run(tmp_path, name, 0.5, 30.0, auto_finish=False)
+    r = _run(tmp_path, name, 0.5, 30.0, auto_finish=False, **BETWEEN_NODES)
     cp = cpython_run
     assert r["cal"]["state"] == cp["cal"]["state"] == "done", r["cal"]
+    # the same tau estimated: the residuals it compares are the exact sums' (integers) in floats,
+    # the least found on the same grid point; its uncertainty comes from the rises of rms^2 near
+    # the least, small differences of it, which amplify the float's rounding (4e4 times measured
+    # on float32: 1e5 half-ulps allowed)
+    ra, rb = r["record"].response, cp["record"].response
+    assert ra["source"] == rb["source"] == "estimated" and ra["tau_s"] == rb["tau_s"], (ra, rb)
+    assert all(abs(x - y) <= 1e5 * float_eps(name) * y for x, y in zip(ra["tau_sigma_s"], rb["tau_sigma_s"])), (ra, rb)
     # the gates and the de-lag are integers: the same samples, seen, refused and fitted
     for k in ("n", "seen", "rej_rate", "rej_cap", "rej_dist", "removed"):
         assert r["last_progress"][k] == cp["last_progress"][k], k
