@@ -68,48 +68,58 @@ def ballast(kb):
             "    except MemoryError:\n        size = max(64, size // 2)\n") % ((kb or 0) * 1024, kb or 0)
 
 
-def run_pico(disk, frames, scale, kb, tmp, track=True, frozen=False):
-    """One run of firmware_heap.py on a fresh emulated Pico with `kb` KB of heap (None: all of it);
-    track=False collects only when the heap is full, as a board does (heap.py's bisection);
-    frozen: on the rp2-pico-frozen image."""
+def flash_with(disk, flash, frozen=False):
+    """A flash file whose filesystem holds `disk`'s files, copied there once by mpremote (minutes on
+    the emulated USB); each run starts from a copy of it (the runner rewrites only the image)."""
+    with PicoBoard(flash, idle="jump", frozen=frozen) as board:
+        subprocess.run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", disk + "/.", ":"],
+                       check=True, capture_output=True, timeout=7200)
+    return flash
+
+
+def run_pico(template, frames, scale, kb, tmp, track=True, frozen=False):
+    """One run of firmware_heap.py on a fresh emulated Pico whose flash is a copy of `template`
+    (flash_with), with `kb` KB of heap (None: all of it); track=False collects only when the heap is
+    full, as a board does (heap.py's bisection); frozen: on the rp2-pico-frozen image."""
     rate, decim, window = DEFAULT
     args = ["firmware_heap", frames, "fs", str(rate), str(decim), str(window), str(SECONDS), repr(scale),
             "1" if track else "0"]
     code = ("import os, sys\nos.mkdir('/fs')\n" + ballast(kb) + "print('ballast', gc.mem_alloc() - a0, len(B))\n"
             "while sys.argv: sys.argv.pop()\nsys.argv.extend(%r)\nimport firmware_heap\n" % (args,))
     flash = os.path.join(tmp, "pico-%s.flash" % kb)
+    shutil.copyfile(template, flash)
     with PicoBoard(flash, idle="jump", frozen=frozen) as board:
-        r = subprocess.run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", disk + "/.", ":",
-                            "+", "soft-reset", "+", "exec", code], capture_output=True, text=True, timeout=7200)
+        r = subprocess.run([sys.executable, "-m", "mpremote", "connect", board.port, "soft-reset", "+", "exec", code],
+                           capture_output=True, text=True, timeout=7200)
     os.remove(flash)
     lines = r.stdout.splitlines()
-    ballast = [[int(w) for w in ln.split()[1:]] for ln in lines if ln.startswith("ballast ")]
+    taken = [[int(w) for w in ln.split()[1:]] for ln in lines if ln.startswith("ballast ")]
     got = [ln for ln in lines if ln.startswith("{")]
-    if r.returncode or not ballast or not got:
-        if "MemoryError" in r.stdout + r.stderr and ballast:   # before the script's own try
+    if r.returncode or not taken or not got:
+        if "MemoryError" in r.stdout + r.stderr and taken:   # before the script's own try
             return {"failed": "start"}
         raise RuntimeError("the Pico run at %s KB failed: %s" % (kb, (r.stdout + r.stderr)[-1500:]))
     out = json.loads(got[-1])
     for key in _WITH_BALLAST:
         if out.get(key):
-            out[key] -= ballast[0][0]
-    out["ballast_pieces"] = ballast[0][1]
+            out[key] -= taken[0][0]
+    out["ballast_pieces"] = taken[0][1]
     return out
 
 
-def smallest(disk, frames, scale, tmp, lo, hi, frozen, step=2):
+def smallest(template, frames, scale, tmp, lo, hi, frozen, step=2):
     """The smallest heap (KB, a multiple of `step`) in which boot, calibration and survey succeed,
-    bisected between `lo` (assumed to fail) and `hi` (run to check), collecting only when the heap is
-    full (heap.py's smallest(), without its check of every size above: each run is minutes here);
-    -> (KB or None if `hi` fails, [(kb, phase failed or None)] in the order run)."""
+    bisected between `lo` (which must fail) and `hi` (which must succeed), collecting only when the heap
+    is full (heap.py's smallest(), without its check of every size above: each run is minutes here);
+    -> (KB, or None if `hi` fails or `lo` succeeds; [(kb, phase failed or None)] in the order run)."""
     tried = []
 
     def ok(kb):
-        got = run_pico(disk, frames, scale, kb, tmp, track=False, frozen=frozen)
+        got = run_pico(template, frames, scale, kb, tmp, track=False, frozen=frozen)
         tried.append((kb, got.get("failed")))
         return "failed" not in got
 
-    if not ok(hi):
+    if not ok(hi) or ok(lo):
         return None, tried
     while hi - lo > step:
         mid = (lo + hi) // (2 * step) * step
@@ -145,7 +155,8 @@ def main(argv=None):
             disk, prep = os.path.join(tmp, "disk%d" % frozen), os.path.join(tmp, "prep")
             os.makedirs(disk)
             os.makedirs(prep, exist_ok=True)
-            disks[frozen] = (disk,) + _disk(disk, parts[frozen]["mpy_cross"], prep, frozen)
+            got = _disk(disk, parts[frozen]["mpy_cross"], prep, frozen)
+            disks[frozen] = (flash_with(disk, os.path.join(tmp, "template%d.flash" % frozen), frozen),) + got
         native = all(d[3] for d in disks.values())
         print("## Heap on the emulated Raspberry Pi Pico (firmware %s%s, default %d / %d / %d, loop-back"
               " board)\n" % (" and ".join(_IMAGE[f] for f in images), " with fitsums.mpy for armv6m" if native else "",
@@ -157,8 +168,8 @@ def main(argv=None):
         print_table([], [], None)
         for kb in args.kb:
             for frozen in images:
-                disk, frames, scale, _native = disks[frozen]
-                got = run_pico(disk, frames, scale, kb or None, tmp, frozen=frozen)
+                template, frames, scale, _native = disks[frozen]
+                got = run_pico(template, frames, scale, kb or None, tmp, frozen=frozen)
                 total = got.get("heap_total")
                 size = kb or (total or 0) // 1024
                 who = "the Pico's whole heap, %d B" % total if not kb and total else "ballast"
@@ -170,11 +181,11 @@ def main(argv=None):
                         " large)" % got["ballast_pieces"] if got["ballast_pieces"] > 1 else ""))
         if args.smallest:
             for frozen in images:
-                disk, frames, scale, _native = disks[frozen]
-                least, tried = smallest(disk, frames, scale, tmp, args.smallest[0], args.smallest[1], frozen)
+                template, frames, scale, _native = disks[frozen]
+                least, tried = smallest(template, frames, scale, tmp, args.smallest[0], args.smallest[1], frozen)
                 notes.append("%s: smallest heap that boots, calibrates and surveys (collecting only when full): %s;"
-                             " runs: %s" % (_IMAGE[frozen], "%d KB" % least if least else "more than %d KB"
-                                            % args.smallest[1],
+                             " runs: %s" % (_IMAGE[frozen], "%d KB" % least if least else "not between %d and %d KB"
+                                            % tuple(args.smallest),
                                             ", ".join("%d KB %s" % (kb, "ok" if f is None else "failed " + f)
                                                       for kb, f in tried)))
     command = " ".join(["python -m desktop.bench.heap_pico"] + (argv if argv is not None else sys.argv[1:]))
