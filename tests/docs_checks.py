@@ -202,7 +202,7 @@ def check_command(doc, line, subs, index):
         for opt in _options_in(rest):
             if opt not in known:
                 problems.append("%s: python -m %s has no option %s" % (doc, mod, opt))
-    for m in re.finditer(r"(?<![\w-])make ([a-z]+)\b", line):
+    for m in re.finditer(r"(?<![\w-])make ([a-z][\w-]*)", line):   # pico-frozen too
         with open(os.path.join(ROOT, "Makefile")) as fh:
             targets = set(re.findall(r"^([\w-]+):", fh.read(), re.M))
         if m.group(1) not in targets:

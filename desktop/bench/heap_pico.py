@@ -139,7 +139,8 @@ def main(argv=None):
                    help="the image with the firmware frozen in (rp2-pico-frozen) instead of .mpy files")
     p.add_argument("--compare", action="store_true", help="each heap on both images, the .mpy one first")
     p.add_argument("--smallest", type=int, nargs=2, metavar=("LO", "HI"),
-                   help="then bisect the smallest heap between LO KB (taken to fail) and HI KB, 2 KB steps")
+                   help="then bisect the smallest heap between LO KB (which must fail) and HI KB (which must not)")
+    p.add_argument("--step", type=int, default=2, help="the bisection's resolution, KB (default 2)")
     args = p.parse_args(argv)
     images = [False, True] if args.compare else [args.frozen]
     parts = {frozen: pico_parts(frozen=frozen) for frozen in images}
@@ -182,7 +183,8 @@ def main(argv=None):
         if args.smallest:
             for frozen in images:
                 template, frames, scale, _native = disks[frozen]
-                least, tried = smallest(template, frames, scale, tmp, args.smallest[0], args.smallest[1], frozen)
+                least, tried = smallest(template, frames, scale, tmp, args.smallest[0], args.smallest[1], frozen,
+                                       args.step)
                 notes.append("%s: smallest heap that boots, calibrates and surveys (collecting only when full): %s;"
                              " runs: %s" % (_IMAGE[frozen], "%d KB" % least if least else "not between %d and %d KB"
                                             % tuple(args.smallest),
