@@ -78,7 +78,9 @@ def estimate(s):
     t, sigma, _ = minimise(rms_at, centre[0], -_REACH, _REACH, _GRID)
     r = s.response
     if t is None or abs(t) >= _REACH:
-        r["estimate"] = "not identified: no least residual within %d %% of it" % (100 * _REACH * STEP)
+        r["estimate"] = ("not identified: no least residual within %d %% of it (turned too slowly to see the lag: "
+                         "the de-lag's noise alone is least at no lag; or a response far from the configured one)"
+                         % (100 * _REACH * STEP))
         return None
     if sigma is None or sigma * STEP > s.cfg["response_tol"]:
         r["estimate"] = "not identified: the residual does not rise away from it (turned too slowly to see the lag)"

@@ -98,8 +98,9 @@ def minimise(rms_at, n, lo=-5, hi=5, q=64, refine=2):
     an end, up to lo / hi), then `refine` parabola steps on the q grid. t_sigma, from the
     residual sum of squares n rms^2 rising by rms^2 (one parameter, one unit of chi-square),
     along the curve v + b d^2 + c d^4 fitted to the points nearest the least (the lag left,
-    delta, raises it by ~delta^4 where the noise of the de-lag term, ~delta^2, does not); None
-    when the curve does not rise (turned too slowly to see the lag). t None: nothing solved.
+    delta, raises it by ~delta^4 where the noise of the de-lag term, ~delta^2, does not), and
+    the last parabola step's move in quadrature (how far the search still went); None when the
+    curve does not rise (turned too slowly to see the lag). t None: nothing solved.
     """
     pts = {}
 
@@ -120,6 +121,7 @@ def minimise(rms_at, n, lo=-5, hi=5, q=64, refine=2):
         if new == best:
             break
         best = new
+    moved = 0
     for _ in range(refine):
         near = sorted(p for p in pts if pts[p] is not None)
         i = near.index(best)
@@ -128,11 +130,17 @@ def minimise(rms_at, n, lo=-5, hi=5, q=64, refine=2):
         a, c = near[i - 1], near[i + 1]
         p = round(_parabola_min((a, pts[a]), (best, pts[best]), (c, pts[c])))
         if p in pts:
+            moved = 0
             break
+        moved = p - best
         at(p)
         best = _least(pts)
     v = pts[best]
-    return best / q, _sigma(pts, best, v, n, q), v ** 0.5
+    sigma = _sigma(pts, best, v, n, q)
+    if sigma is not None:
+        # the search's own: its last parabola step's move (a flat, quartic bottom converges slowly)
+        sigma = (sigma * sigma + (moved / q) ** 2) ** 0.5
+    return best / q, sigma, v ** 0.5
 
 
 def _least(pts):
