@@ -1,6 +1,6 @@
 """A calibration's estimate of the slow sensor's time constant, at the finish (session.py).
 
-    steps_us, tau_sums = setup(cfg, taus_us)   # (None, None): not estimated
+    steps_us, tau_sums = setup(cfg, taus_us, kind)   # (None, None): not estimated
     attach(session, delag)                     # survey.py: the gates take the steps from it
     final = estimate(session)                  # (fit, unit) at the estimated tau, or None
     problem = not_first_order(response, cal)   # (reason, message) or None
@@ -27,6 +27,7 @@ from array import array
 
 from gates import HIST
 from shared import codes
+from shared.codes import QUICK
 from shared.delag import tau_us
 from shared.fit import EllipsoidFit, FitError
 from shared.tausums import TauSums, lagrange_sums, minimise
@@ -38,10 +39,11 @@ _MIN_SAMPLES = 60    # as a provisional solve (session.py)
 _ITER = 1        # Gauss-Newton steps per solve of the search: the provisional solve's
 
 
-def setup(cfg, taus_us):
-    """(per-axis tau steps in whole us, TauSums) for a session de-lagging with taus_us, with
-    tau_estimate on; (None, None) otherwise."""
-    if taus_us is None or not cfg["tau_estimate"]:
+def setup(cfg, taus_us, kind):
+    """(per-axis tau steps in whole us, TauSums) for a session of this kind de-lagging with
+    taus_us, with tau_estimate on; (None, None) otherwise, and for a quick re-calibration (its
+    sums would not be used)."""
+    if taus_us is None or not cfg["tau_estimate"] or kind == QUICK:
         return None, None
     return [max(1, tau_us(STEP * t / 1e6)) for t in taus_us], TauSums()
 

@@ -67,7 +67,7 @@ class Session:
             "tau_sigma_s": [cfg["response_tol"] * t / 1e6 for t in self.taus_us]}
         # the tau estimate (lagfit.py): the Delag's tau steps and the other nodes' sums (None:
         # not estimated), and the fit (and its unit) the finish solves
-        self.steps_us, self.tau_sums = lagfit.setup(cfg, self.taus_us)
+        self.steps_us, self.tau_sums = lagfit.setup(cfg, self.taus_us, self.kind)
         self._final = None
         self.search_solves = 0      # the tau estimate's solves at the finish
         # bound once: the per-sample call allocates nothing
