@@ -151,6 +151,7 @@ def iterate(pb, pr, st, num, max_iter, basis=None):
             if not any(da) and not any(df):
                 break
             biggest = max(abs(float(x)) for x in step)
+            cand = None   # a refused candidate is garbage before the next is built (a board's heap)
             cand = State(pb, pr, [st.a_int[i] + da[i] for i in range(6)], [st.f_int[i] + df[i] for i in range(3)], st)
             # Near the fixed point the Gauss-Newton step is trusted even when
             # rounding hides the (tiny) decrease of the objective.

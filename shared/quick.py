@@ -41,7 +41,7 @@ from shared.iteration import MAX_ITER, PROVISIONAL_ITER, State, iterate, log_rat
 from shared.prior import SHAPE_SIGMA, make_prior
 from shared.quadric import FRAC, PAIR
 from shared.result import MAX_ERROR_SHARE, finish
-from shared.solver import MIN_SAMPLES, setup, solve_state
+from shared.solver import MIN_OBSERVABILITY, MIN_SAMPLES, setup, solve_problem
 
 # the 0.1 % points of chi^2 with 0..5 degrees of freedom: a model with more gains against
 # one with fewer; the full fit's shape (six) against the gains fitted
@@ -109,7 +109,8 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA
     """
     if field is None:
         field = prior.field
-    pb, k_nom, kr, observability = setup(sums, field, num, scale, min_samples)
+    problem = setup(sums, field, num, scale, min_samples)
+    pb, k_nom, kr, observability = problem
     n = pb.n
     pr = make_prior(pb, prior, field, num, kr, k_nom, shape_sigma, QUICK_OFFSET_NT, 2.0 * QUICK_GAIN)
     # the samples must have turned: their spread against the radius (both in the frame)
@@ -121,6 +122,7 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA
         raise FitError(DEGENERATE_COVERAGE, "the samples turned by %.1f degrees rms: turn the instrument"
                        % math.degrees(turn))
     stale = State(pb, pr, [quantise(x) for x in pr.a_frame], [quantise(x) for x in pr.f_target])
+    stale_rms = _rms(pb, stale.rss, field)
     # a provisional estimate (a device's, every few seconds while collecting) skips the
     # shape test, a whole nine-parameter fit; the final solve runs it
     provisional = max_iter <= PROVISIONAL_ITER
@@ -137,6 +139,8 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA
         rejected += rej2
         if lr > CHI2_001[len(more.counts) - len(basis.counts)]:
             basis, st, h, gains_lr = more, st2, h2, lr
+    # what the shape test does not need is garbage before it builds its states (a board's heap)
+    stale = st2 = h2 = more = None
     dirs = basis.directions(st)
     cal = finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, float("inf"), h, dirs)
     d = cal.diagnostics
@@ -147,15 +151,16 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA
     prev_error = float(prior.diagnostics.get("predicted_error") or 0.0)
     d["prior_error"] = prev_error
     d["predicted_error"] = math.sqrt(d["predicted_error"] ** 2 + prev_error ** 2)
-    stale_rms = _rms(pb, stale.rss, field)
+    rss = st.rss
+    st = h = dirs = None
 
     # The shape test: the full fit, weakly tied to the previous calibration.
     try:
         if provisional:
             raise FitError(NOT_BETTER, "no shape test for a provisional estimate")
-        full, full_st = solve_state(sums, field, prior, num, scale, shape_sigma, min_samples, max_iter,
-                                    float("inf"))
-        ratio = log_ratio(st.rss, full_st.rss)
+        full, full_st = solve_problem(problem, field, prior, num, shape_sigma, max_iter, float("inf"),
+                                      MIN_OBSERVABILITY)
+        ratio = log_ratio(rss, full_st.rss)
         lr = n * independent * ratio if ratio is not None else 0.0
     except FitError:
         full, lr = None, 0.0

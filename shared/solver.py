@@ -65,24 +65,34 @@ def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=SHAPE_
 def solve_state(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA,
                 min_samples=MIN_SAMPLES, max_iter=MAX_ITER, max_error=None, min_observability=MIN_OBSERVABILITY):
     """solve(), also returning the converged state (its exact RSS: shared.quick's shape test)."""
-    pb, k_nom, kr, observability = setup(sums, field, num, scale, min_samples)
-    n = pb.n
+    return solve_problem(setup(sums, field, num, scale, min_samples), field, prior, num, shape_sigma, max_iter,
+                         max_error, min_observability)
+
+
+def solve_problem(problem, field, prior, num, shape_sigma, max_iter, max_error, min_observability):
+    """solve_state() on the problem setup() returned: shared.quick's shape test solves the problem
+    of its own fit, one copy of the re-centred sums on a board's heap where two ran it out."""
+    pb, k_nom, kr, observability = problem
     if prior is None and observability < min_observability:
         raise FitError(DEGENERATE_COVERAGE, "samples span no volume (observability %.2g): rotate about more than one axis" % observability)
 
     pr = make_prior(pb, prior, field, num, kr, k_nom, shape_sigma)
+    st, h, iterations, rejected = iterate(pb, pr, _start(pb, pr), num, max_iter)
+    cal = finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error, h)
+    cal.diagnostics["rejected"] = rejected
+    return cal, st
 
+
+def _start(pb, pr):
+    """The initial guess with the lower objective (2), as a State (in a function of its own so that
+    the guess not taken is garbage before the iteration's states are built)."""
     best = None
     for a, f in initial_guesses(pb):
         if not linalg.all_finite(a) or not linalg.all_finite(f):
             continue
         st = State(pb, pr, [quantise(x) for x in a], [quantise(x) for x in f])
-        if best is None or best.worse_than(st, n):
+        if best is None or best.worse_than(st, pb.n):
             best = st
     if best is None:
         raise FitError(NOT_ELLIPSOID, "no ellipsoid through the samples")
-
-    st, h, iterations, rejected = iterate(pb, pr, best, num, max_iter)
-    cal = finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error, h)
-    cal.diagnostics["rejected"] = rejected
-    return cal, st
+    return best
