@@ -157,19 +157,24 @@ class CalibrationFlow:
         s = self._end()
         gc.collect()
         try:
-            return self._finish(s)
+            cal, result, held = self._conclude(s)
         finally:
+            # the session (its sums, its ring) and its modules are garbage before the calibration
+            # is saved: its JSON text wants a few contiguous KB of a small heap (a Pico's 190 KB)
+            s = None
             self._unload()
+        return self._settle(cal, result, held)
 
-    def _finish(self, s):
+    def _conclude(self, s):
+        """The session's result: (calibration or None, the cal event's fields, held: see _worse_than_current)."""
         cal, reason, msg = s.finish()
         b = self.board
         b.busy(SOLVE, 1 + s.search_solves)   # and the tau estimate's (lagfit.py)
         result = {"state": s.state, "n": s.fit.n, "coverage": json_number(s.coverage())}
+        held = None
         if cal is None:
             result["reason"] = reason
             result["msg"] = msg
-            self.led.flash(ledp.FAILED)
         else:
             cal.meta["firmware"] = self.firmware
             cal.meta["uptime_ms"] = self.guard.uptime_ms()
@@ -185,23 +190,29 @@ class CalibrationFlow:
             result["field"] = json_number(cal.field, 2)
             result["kind"] = cal.meta.get("kind")
             held = self._worse_than_current(cal, s)
-            if held is not None:
-                # the one in force stays; the new one waits for keep-cal (until the next session or boot)
-                self.held = cal
-                result["state"] = codes.FAILED
-                result["reason"] = codes.WORSE_THAN_CURRENT
-                result["msg"] = ("predicted full-sphere error %.3f nT is not below the %.3f nT of the calibration in "
-                                 "force on these samples: it stays" % held)
-                result["current_error"] = json_number(held[1], 4)
-                result["in_force"] = False
-                self.led.flash(ledp.KEPT_PREVIOUS)
-            else:
-                saved, err = self.install(cal)
-                result["saved"] = saved
-                if err:
-                    result["save_error"] = err
-                result["in_force"] = True
-                self.led.flash(ledp.DONE if result["kind"] == FULL else ledp.DONE_QUICK)
+        return cal, result, held
+
+    def _settle(self, cal, result, held):
+        """Put the session's calibration in force (saved), or hold it, or say it failed."""
+        if cal is None:
+            self.led.flash(ledp.FAILED)
+        elif held is not None:
+            # the one in force stays; the new one waits for keep-cal (until the next session or boot)
+            self.held = cal
+            result["state"] = codes.FAILED
+            result["reason"] = codes.WORSE_THAN_CURRENT
+            result["msg"] = ("predicted full-sphere error %.3f nT is not below the %.3f nT of the calibration in "
+                             "force on these samples: it stays" % held)
+            result["current_error"] = json_number(held[1], 4)
+            result["in_force"] = False
+            self.led.flash(ledp.KEPT_PREVIOUS)
+        else:
+            saved, err = self.install(cal)
+            result["saved"] = saved
+            if err:
+                result["save_error"] = err
+            result["in_force"] = True
+            self.led.flash(ledp.DONE if result["kind"] == FULL else ledp.DONE_QUICK)
         self.last_result = result
         self.proto.event("cal", result)
         self.steady_led()

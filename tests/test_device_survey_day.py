@@ -95,7 +95,8 @@ def test_calibrate_cold_warm_up_quick_recalibrate_and_compensate(kind, heap, tmp
         full = _run_cal(w, dev, 0.2, 60.0)
     finally:
         dev.close()
-    assert full["state"] == "done" and full["kind"] == "full" and full["tempco"] is None, full
+    # saved: the next power-up (each stage below) loads it from the flash
+    assert full["state"] == "done" and full["kind"] == "full" and full["tempco"] is None and full["saved"], full
     # 2. warm, wrist twists, long press: quick
     w = _world(25.0, "hand", 43.0, coverage=0.2)
     dev = start_device(w, root, kind=kind, **heap)
@@ -107,7 +108,7 @@ def test_calibrate_cold_warm_up_quick_recalibrate_and_compensate(kind, heap, tmp
         status = [json.loads(x) for x in w.lines() if '"cmd": "status"' in x][-1]
     finally:
         dev.close()
-    assert quick["state"] == "done" and quick["kind"] == "quick", (quick, rec["diagnostics"])
+    assert quick["state"] == "done" and quick["kind"] == "quick" and quick["saved"], (quick, rec["diagnostics"])
     assert _three_long_pulses(w.led_log)     # the LED's DONE_QUICK: 3 x 600 ms on, 200 ms off
     # finished on the quick's coverage (quick_min_coverage 0.1), below a full one's min_coverage (0.5)
     assert quick["tempco"] == "fitted" and quick["coverage"] < 0.5, quick
