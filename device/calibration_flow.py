@@ -106,6 +106,13 @@ class CalibrationFlow:
             self.cancel()
 
     def tick(self):
+        # the finish runs here, outside _tick's frame: a frame holding the session would keep it
+        # and its modules' bytecode on the heap while finish saves the calibration (finish)
+        if self._tick():
+            self.finish()
+
+    def _tick(self):
+        """The session's pass: its solve, progress and LED; True when it is to finish."""
         s = self.session
         b = self.board
         now = b.ticks_ms()
@@ -120,10 +127,8 @@ class CalibrationFlow:
         # coverage is a pass over all cells: check it only after a provisional solve
         if solved and s.ready():
             self.led.set(ledp.ENOUGH)
-            if self.cfg["auto_finish"] and not s.hold:
-                self.finish()
-        elif s.timed_out(now, self._diff):
-            self.finish()
+            return self.cfg["auto_finish"] and not s.hold
+        return s.timed_out(now, self._diff)
 
     def start(self, kind=AUTO, hold=False):
         if self.session is not None:
