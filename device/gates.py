@@ -78,6 +78,15 @@ def disturbance_limit(cfg, rms, predicted_error):
     return max(cfg["outlier_nt"], 4.0 * rms + 2.0 * predicted_error)
 
 
+def zeros(n):
+    """array("i") of n zeros in one block: array("i", bytes(4 n)) also needs a block as large for
+    the bytes, two 5 KB runs for the ring where a Pico's fragmented 190 KB had one."""
+    a = array("i", range(n))
+    for i in range(n):
+        a[i] = 0
+    return a
+
+
 class Gates:
     def __init__(self, cfg, fit, cov, window, period_ms, centre):
         self.fit = fit
@@ -101,7 +110,7 @@ class Gates:
         self._fresh = True          # no previous sample to compare with
         self._dist_run = 0
         self._hold = 0              # samples still to reject after a disturbance
-        self.hist = array("i", bytes(4 * 5 * HIST))  # x, y, z, sample index, cell
+        self.hist = zeros(5 * HIST)  # x, y, z, sample index, cell
         self.hist_n = 0
         self.hist_i = 0
         # the tau estimate (session.py attach): the Delag whose .ex .ey .ez are the current
