@@ -32,7 +32,6 @@ from desktop.firmware.image import build_image
 from desktop.firmware.interpreters import interpreter as interpreter_path
 
 HEAP = "256K"   # an rp2040 gives MicroPython ~200 KB of heap; a little slack for the sim link
-PICO_HEAP = "190K"   # what a Raspberry Pi Pico's MicroPython has (desktop/bench/heap.py), no slack
 # The 64-bit unix builds (micropython, micropython-float32) double every pointer: the same
 # firmware takes 119,904 B after boot there against 82,176 B on a 32-bit build (python -m
 # desktop.bench.heap), 1.46 times, so the 32-bit board's 256 KB is ~374 KB here. (320 KB, the
