@@ -38,12 +38,14 @@ gate's ~7 degree turn per sample.
 
 The accepted samples' last HIST stay in a ring (`hist`: x, y, z, sample index,
 cell): the back-off removes from it, and the session reads it for the
-residuals' correlation (session.py).
+residuals' sample-to-sample correlation (session.py); their batch sums over the
+whole session (residual_batches.py) give the predicted error's widening.
 """
 
 import math
 from array import array
 
+from residual_batches import ResidualBatches
 from shared.delag import configured_tau_s, lag_dps
 
 HIST = 256           # recent accepted samples kept for removal (5 ints each)
@@ -119,6 +121,7 @@ class Gates:
         self.lag = None
         self.tau_sums = None
         self.hist_e = None
+        self.batches = ResidualBatches(fit, centre)   # the residuals' correlation over the session
         self.back = int(1000 / period_ms) + 1   # samples in one second (backoff)
         self.gate_dps = gate_dps(cfg)
         g = self.gate_dps * math.pi / 180.0 * period_ms / 1000.0
@@ -198,6 +201,7 @@ class Gates:
                     self._hold -= 1
                 return False
         self.fit.add(sx, sy, sz)
+        self.batches.added()
         cov.add_to(cell)
         ts = self.tau_sums
         if ts is not None:
@@ -242,6 +246,7 @@ class Gates:
             if self.tau_sums is not None:
                 he = self.hist_e
                 self.tau_sums.remove(h[i], h[i + 1], h[i + 2], he[j * 3], he[j * 3 + 1], he[j * 3 + 2])
+            self.batches.removed(h[i], h[i + 1], h[i + 2])
             self.cov.remove_from(h[i + 4])
             self.hist_i = j
             self.hist_n -= 1

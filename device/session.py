@@ -30,6 +30,7 @@ from shared.codes import AUTO, CANCELLED, COLLECTING, DONE, FAILED, FULL, QUICK,
 from shared.coverage import Coverage
 from shared.delag import configured_tau_s, tau_us
 from shared.fit import EllipsoidFit, FitError
+from shared.honest import correlation_time, honest_error, systematic_floor
 from shared.response import check_response
 
 _MIN_PROVISIONAL = 60
@@ -91,6 +92,7 @@ class Session:
         self._seen_mark = 0
         self.slow_down = False       # most samples of the last report turned too fast
         self.turn_sd = 0.0           # sd of the squared turn between accepted samples (residual_rho)
+        self.white = None            # the residuals' sample-to-sample noise, nT (residual_rho)
 
     def elapsed_s(self, now_ms, diff):
         return diff(now_ms, self.started) / 1000.0
@@ -123,7 +125,7 @@ class Session:
         prev_i = -2
         prev_r = 0.0
         pairs = 0
-        s = ss = s1 = 0.0
+        s = ss = s1 = dd = 0.0
         t = tt = st = 0.0    # the squared turn t of each pair, and its products with the pair's residual
         pj = 0
         for k in range(n):
@@ -135,6 +137,7 @@ class Session:
                 s += r + prev_r
                 ss += r * r + prev_r * prev_r
                 s1 += r * prev_r
+                dd += (r - prev_r) * (r - prev_r)
                 # in floats: the codes' squares would be big integers (or overflow) on a board
                 x0, y0, z0 = float(h[j]), float(h[j + 1]), float(h[j + 2])
                 dx, dy, dz = x0 - h[pj], y0 - h[pj + 1], z0 - h[pj + 2]
@@ -147,6 +150,7 @@ class Session:
             pj = j
         if pairs < _MIN_PAIRS:
             return None, pairs, None
+        self.white = math.sqrt(dd / (2 * pairs))   # von Neumann: sees the white part only
         m = s / (2 * pairs)
         var = ss / (2 * pairs) - m * m
         if not var > 0.0:
@@ -350,18 +354,28 @@ class Session:
             "capture estimates per-axis taus"
 
     def _widen(self, cal):
-        # residuals correlated beyond chance (rho > 2 / sqrt(pairs)): fewer independent samples
+        # the residuals' correlation over the whole session, from their batch means under this
+        # fit (residual_batches.py), widens the core's predicted error: shared.honest, the
+        # function `fluxcal fit` and `report` call on a file's residuals
         d = cal.diagnostics
         rho, pairs, rate = self.residual_rho(cal)
-        if rho is None:
-            return
-        d["residual_rho"] = round(rho, 4)
+        if rho is not None:
+            d["residual_rho"] = round(rho, 4)
         if rate is not None:
             d["residual_turn_corr"] = round(rate, 3)
-        if rho > 2.0 / math.sqrt(pairs) and d.get("predicted_error") is not None:
-            rho = min(rho, _MAX_RHO)
-            d["predicted_error_white"] = d["predicted_error"]
-            d["predicted_error"] = d["predicted_error"] * math.sqrt((1.0 + rho) / (1.0 - rho))
+        pe = d.get("predicted_error")
+        rms = d.get("rms")
+        if pe is not None and rms is not None:
+            means, counts = self.gates.batches.means(cal)
+            tau = correlation_time(means, counts, rms)
+            pinned = d.get("mode") in (QUICK, RESHAPED)   # the field kept from the one in force
+            floor = systematic_floor(rms, self.white) if pinned and self.white is not None else 0.0
+            d["tau_int"] = round(tau, 2)
+            d["predicted_error_white"] = pe
+            if tau > 1.0 or floor > pe:
+                d["predicted_error"] = honest_error(pe, d.get("prior_error"), tau, floor)
+                if floor:
+                    d["systematic_floor"] = round(floor, 4)
         if self.response is not None and d.get("predicted_error") is not None:
             # de-lagged with a tau known to tau_sigma: a lag of that much may be left, reading |B|
             # short by B (sigma w)^2 / 2 (gates.py gate_dps). The fit takes its mean into the field;

@@ -215,11 +215,22 @@ def test_survey_warns_when_the_temperature_left_the_calibration_temperature(tmp_
     dev.close()
 
 
+# The widened predicted error's correlation time (shared/honest.py) compares batch means of the
+# residuals, ~0.04 nT apart for white 1 nT noise in 512-sample batches. A calibration solved in
+# 30-bit floats (22-bit significands) differs from the double one by a few ulps of its matrix,
+# which move |h_c| by 0.01-0.05 nT of 50,000, differently by orientation: with it the batch
+# means, so the estimate, by up to ~10 %, and the error by ~5 % (measured 4 %).
+_BATCH_KEYS = ("predicted_error", "tau_int")
+
+
 def _same(a, b, eps, path="line"):
     """JSON values equal; floats to the narrower interpreter's rounding (4 half-ulps relative,
-    or one unit of the decimals the firmware rounds them to)."""
+    or one unit of the decimals the firmware rounds them to; _BATCH_KEYS on floats narrower
+    than 32 bits to 10 %)."""
     if isinstance(a, float) or isinstance(b, float):
         tol = max(4 * eps * abs(a), 10.0 ** -3 if eps > 1e-10 else 0.0)
+        if eps > 2.0 ** -24 and path.rsplit(".", 1)[-1] in _BATCH_KEYS:
+            tol = max(tol, 0.1 * abs(a))
         assert isinstance(b, (int, float)) and abs(a - b) <= tol, (path, a, b)
     elif isinstance(a, dict):
         assert isinstance(b, dict) and set(a) == set(b), (path, a, b)

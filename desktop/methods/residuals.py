@@ -19,14 +19,18 @@ With autocorrelation rho(k) and weights that vary slowly compared with it
     Var(sum_i g_i r_i) = sigma^2 sum_i g_i^2 tau_int,   tau_int = 1 + 2 sum_{k>=1} rho(k),
 
 so the N samples weigh as N / tau_int independent ones and the predicted
-error grows by sqrt(tau_int). tau_int is estimated with Sokal's automatic
-window (A. Sokal, "Monte Carlo methods in statistical mechanics", 1996):
-tau(M) = 1 + 2 sum_{k=1..M} rho(k) at the smallest M >= C tau(M), C = 5, rho
-from the FFT of the mean-removed residuals. White residuals give 1 (to
-about sqrt(2 (2M + 1) / N)); a value below 1 (anti-correlation) is not used to
-shrink the error. A previous calibration's own error, which a quick
-re-calibration adds in quadrature (diagnostics["prior_error"], shared.quick),
-does not come from these samples and is not inflated.
+error grows by sqrt(tau_int). tau_int is estimated from the residuals' batch
+means by shared.honest, the function the firmware runs on its session's batch
+sums (device/residual_batches.py), so that one set of samples gets one figure on
+the board and here: tau_int = sum_k n_k (m_k - m)^2 / ((K - 1) var) over K
+batches of consecutive samples, 1 unless beyond two standard errors of white
+noise's. The residual per sample is (|h_c|^2 - F^2) / 2F, which is what the
+board's batch sums give (it differs from |h_c| - F by r^2 / 2F, 1e-5 nT).
+A previous calibration's own error, which a quick re-calibration adds in
+quadrature (diagnostics["prior_error"], shared.quick), does not come from these
+samples and is not inflated. integrated_time (Sokal's automatic window, A.
+Sokal, "Monte Carlo methods in statistical mechanics", 1996) stays for the
+lag estimate's batch length (desktop.methods.lag), which needs no board.
 
 2. A systematic floor
 ---------------------
@@ -79,11 +83,10 @@ import math
 
 import numpy as np
 
-from desktop.methods import magnitudes
+from desktop.methods import correct_array
+from shared import honest
 
 SOKAL_C = 5.0
-# rms above this multiple of the white noise (rho(1) > 3/4) leaves a systematic floor
-FLOOR_RATIO = 2.0
 
 
 def autocorrelation(x):
@@ -115,14 +118,24 @@ def white_rms(r):
     return float(np.sqrt(np.mean(d * d) / 2.0)) if len(d) else 0.0
 
 
+def batch_means(r):
+    """(means, counts) of r over consecutive batches of shared.honest.batch_length(len(r))."""
+    r = np.asarray(r, dtype=float)
+    b = honest.batch_length(len(r))
+    edges = np.arange(0, len(r), b)
+    return (np.add.reduceat(r, edges) / np.diff(np.r_[edges, len(r)])).tolist(), np.diff(np.r_[edges, len(r)]).tolist()
+
+
 def residual_stats(r):
-    """dict: rms, white (sigma_w), tau_int, window, floor (sqrt(max(0, rms^2 - 4 sigma_w^2)))."""
+    """dict: rms, white (sigma_w), tau_int (shared.honest.correlation_time), batch (its
+    length), floor (shared.honest.systematic_floor)."""
     r = np.asarray(r, dtype=float)
     rms = float(np.sqrt(np.mean(r * r)))
     white = white_rms(r)
-    tau, window = integrated_time(r)
-    floor = math.sqrt(max(0.0, rms * rms - (FLOOR_RATIO * white) ** 2))
-    return {"rms": rms, "white": white, "tau_int": tau, "window": window, "floor": floor}
+    means, counts = batch_means(r)
+    tau = honest.correlation_time(means, counts, rms)
+    return {"rms": rms, "white": white, "tau_int": tau, "batch": honest.batch_length(len(r)),
+            "floor": honest.systematic_floor(rms, white)}
 
 
 def honest_error(cal, h, pinned):
@@ -134,16 +147,17 @@ def honest_error(cal, h, pinned):
     (the core's), applied_floor (0 unless pinned); predicted_error is None when
     the calibration carries no predicted error (the numpy reference methods).
     """
-    r = magnitudes(cal, h) - cal.field
+    hc = correct_array(cal, h)
+    r = (np.einsum("ij,ij->i", hc, hc) - cal.field * cal.field) / (2.0 * cal.field)
     out = residual_stats(r)
-    white_pred = cal.diagnostics.get("predicted_error")
+    d = cal.diagnostics
+    # the core's, also where the calibration was widened already (a board's, a written one)
+    white_pred = d.get("predicted_error_white", d.get("predicted_error"))
     out["predicted_error_white"] = white_pred
     out["applied_floor"] = out["floor"] if pinned else 0.0
     if white_pred is None:
         out["predicted_error"] = None
         return out
-    prev = float(cal.diagnostics.get("prior_error") or 0.0)
-    data_sq = max(0.0, float(white_pred) ** 2 - prev ** 2)
-    inflated = math.sqrt(data_sq * max(1.0, out["tau_int"]) + prev ** 2)
-    out["predicted_error"] = max(inflated, out["applied_floor"])
+    out["predicted_error"] = honest.honest_error(float(white_pred), float(cal.diagnostics.get("prior_error") or 0.0),
+                                                 out["tau_int"], out["applied_floor"])
     return out

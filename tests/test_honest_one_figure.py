@@ -1,0 +1,137 @@
+"""One predicted error for one set of samples: the firmware's session and `fluxcal fit`/`report`.
+
+The board widens the core's predicted error by the residuals' correlation in time from the batch
+sums it keeps (device/residual_batches.py); the laptop from the residuals of a file
+(desktop/methods/residuals.py); both through shared/honest.py. Fed the samples the board
+accepted, in order, the laptop must print the board's figure: to the float32 rounding of the
+board's batch sums (shared/honest.py: 0.003 nT in a batch mean against the 0.03 nT spread a
+white 1 nT residual leaves), so 1 % of the widened error.
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+from desktop.cli import main
+from desktop.firmware.files import import_device
+from desktop.methods.residuals import batch_means, honest_error
+from desktop.sim.field import EARTH_NT
+from shared.honest import batch_length, correlation_time
+from tests.test_lag_experiment import ar1
+
+SCALE = 0.01          # nT per sum unit (the session's k): |B| at 5e6 units, 2**22.3 as an ADC's
+
+
+def _samples(seed, n, phi, sigma_nt):
+    """A sensor turned slowly over the sphere whose |B| wanders (AR(1), correlation time
+    (1 + phi) / (1 - phi) samples) with white noise beside it, in integer sum units."""
+    rng = np.random.default_rng(seed)
+    # a random walk over the sphere, 1.7 degrees a sample: under the rate gate, all of it in ~10,000
+    u = np.empty((n, 3))
+    u[0] = (0.0, 0.0, 1.0)
+    for i in range(1, n):
+        v = u[i - 1] + 0.03 * rng.standard_normal(3)
+        u[i] = v / np.linalg.norm(v)
+    r = EARTH_NT + sigma_nt * ar1(rng, n, phi) + 0.5 * rng.standard_normal(n)
+    gains = np.array([1.02, 0.98, 1.01])
+    h = (u * r[:, None]) * gains + [300.0, -150.0, 80.0]
+    return np.rint(h / SCALE).astype(int)
+
+
+def _run_session(samples, cfg_over=None):
+    """The firmware's Session (in this process) over the samples; (cal in nT, the accepted
+    samples in order, in nT): the fit's adds and back-off removals followed last in, first out."""
+    config = import_device("config")
+    session = import_device("session")
+    cfg = config.defaults()
+    cfg.update(cell_cap=10 ** 6, gate_rate_dps=360.0, max_cal_s=10 ** 6, **(cfg_over or {}))
+    s = session.Session(cfg, (SCALE, SCALE, SCALE), 1, 10)
+    kept = []
+    add, remove = s.fit.add, s.fit.remove
+
+    def spy_add(x, y, z, _out=False):
+        (kept.pop() if _out else kept.append((x, y, z)))
+        add(x, y, z, _out)
+
+    def spy_remove(x, y, z):
+        kept.pop()
+        remove(x, y, z)
+
+    s.fit.add, s.fit.remove = spy_add, spy_remove
+    for x, y, z in samples.tolist():
+        s.sample(x, y, z)
+    cal, reason, message = s.finish()
+    assert cal is not None, (reason, message)
+    # the session's cal is in codes (window 1: sum units), k nT per unit
+    return cal.scaled_input(SCALE), np.asarray(kept, dtype=float) * SCALE
+
+
+@pytest.mark.parametrize("phi, widened", [(0.0, False), (0.97, True)])
+def test_the_board_and_the_laptop_give_one_figure(phi, widened, tmp_path):
+    cal, accepted = _run_session(_samples(7, 12000, phi, 3.0 if phi else 0.0))
+    d = cal.diagnostics
+    laptop = honest_error(cal, accepted, pinned=False)
+    assert laptop["predicted_error_white"] == d["predicted_error_white"]
+    assert laptop["tau_int"] == pytest.approx(d["tau_int"], rel=0.01, abs=0.01)
+    assert laptop["predicted_error"] == pytest.approx(d["predicted_error"], rel=0.01)
+    # white residuals are left alone; residuals that wander over ~65 samples widen it several times
+    assert (d["tau_int"] > 10.0) == widened and (d["tau_int"] == 1.0) != widened
+    if widened:
+        assert d["predicted_error"] > 3.0 * d["predicted_error_white"]
+    # `fluxcal fit` on the same samples as a log: its own solve (nT quantised to 1e-3, not codes)
+    # moves the core's figure by far less than the 1 % asked
+    log = tmp_path / "accepted.csv"
+    np.savetxt(log, accepted, delimiter=",", header="x,y,z", comments="", fmt="%.3f")
+    assert main(["fit", str(log), "-o", str(tmp_path / "cal.json")]) == 0
+    written = json.loads((tmp_path / "cal.json").read_text())["diagnostics"]
+    assert written["predicted_error"] == pytest.approx(d["predicted_error"], rel=0.01)
+
+
+def test_correlation_time_of_white_and_ar1_batch_means():
+    rng = np.random.default_rng(3)
+    white = rng.standard_normal(30000)
+    m, c = batch_means(white)
+    assert correlation_time(m, c, float(np.sqrt(np.mean(white ** 2)))) == 1.0
+    # AR(1) phi 0.9: tau 19; batches of batch_length(30000) = 1024 read it to the chi^2 spread of
+    # ~16-31 batch means (sqrt(2 / 15) = 37 %) less the ~tau / batch a finite batch loses
+    x = ar1(rng, 30000, 0.9)
+    m, c = batch_means(x)
+    assert batch_length(30000) == 1024 and len(m) == 30
+    assert correlation_time(m, c, float(np.sqrt(np.mean(x ** 2)))) == pytest.approx(19.0, rel=0.5)
+
+
+def test_batches_follow_the_back_off_last_in_first_out():
+    """Removals (the gates' back-off) that reach into closed batches leave the batch sums those
+    of the samples still in the fit, whatever the batch boundaries and merges in between."""
+    batches_mod = import_device("residual_batches")
+    fit_mod = __import__("shared.fit", fromlist=["EllipsoidFit"])
+    rng = np.random.default_rng(5)
+    pts = _samples(9, 3000, 0.5, 1.0).tolist()
+    fit = fit_mod.EllipsoidFit()
+    centre = [1200, -600, 320]
+    rb = batches_mod.ResidualBatches(fit, centre)
+    kept = []
+    for p in pts:
+        fit.add(*p)
+        rb.added()
+        kept.append(p)
+        if rng.random() < 0.02:                  # a disturbance: up to 150 samples back out
+            for _ in range(min(len(kept) - 1, int(rng.integers(1, 150)))):
+                q = kept.pop()
+                fit.remove(*q)
+                rb.removed(*q)
+
+    class Identity:
+        matrix = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        offset = [0.0, 0.0, 0.0]
+        field = 1.0
+
+    means, counts = rb.means(Identity)
+    assert sum(counts) == len(kept) == fit.n
+    # the batches are consecutive runs of the kept samples: their mean (|h|^2 - 1) / 2 in order
+    v = np.asarray(kept, dtype=float)
+    q = (np.einsum("ij,ij->i", v, v) - 1.0) / 2.0
+    edges = np.cumsum([0] + counts)
+    want = [q[a:b].mean() for a, b in zip(edges[:-1], edges[1:])]
+    assert np.allclose(means, want, rtol=2e-6)     # float32 batch sums (2**-24 each, centred)
