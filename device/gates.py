@@ -201,7 +201,6 @@ class Gates:
                     self._hold -= 1
                 return False
         self.fit.add(sx, sy, sz)
-        self.batches.added()
         cov.add_to(cell)
         ts = self.tau_sums
         if ts is not None:
@@ -212,6 +211,7 @@ class Gates:
             he[i] = lg.ex
             he[i + 1] = lg.ey
             he[i + 2] = lg.ez
+        self.batches.added()        # after the tau nodes took it: a batch may close on it
         h = self.hist
         i = self.hist_i * 5
         h[i] = sx
@@ -246,7 +246,9 @@ class Gates:
             if self.tau_sums is not None:
                 he = self.hist_e
                 self.tau_sums.remove(h[i], h[i + 1], h[i + 2], he[j * 3], he[j * 3 + 1], he[j * 3 + 2])
-            self.batches.removed(h[i], h[i + 1], h[i + 2])
+                self.batches.removed(h[i], h[i + 1], h[i + 2], he[j * 3], he[j * 3 + 1], he[j * 3 + 2])
+            else:
+                self.batches.removed(h[i], h[i + 1], h[i + 2])
             self.cov.remove_from(h[i + 4])
             self.hist_i = j
             self.hist_n -= 1

@@ -30,7 +30,7 @@ from shared import codes
 from shared.codes import QUICK
 from shared.delag import tau_us
 from shared.fit import EllipsoidFit, FitError
-from shared.tausums import TauSums, lagrange_sums, minimise
+from shared.tausums import NODES, TauSums, lagrange_sums, minimise
 
 STEP = 0.1       # the nodes 10 % of the configured tau apart
 _REACH = 5       # searched within 5 steps either side: a bandwidth configured up to 50 % wrong
@@ -56,6 +56,8 @@ def attach(session, delag):
         if g.tau_sums is None:
             g.hist_e = array("i", bytes(4 * 3 * HIST))
             g.tau_sums = session.tau_sums
+            fits = session.tau_sums.fits     # the residuals' batch means at any tau too
+            g.batches.attach(fits[NODES.index(-1)], fits[NODES.index(1)])
 
 
 def estimate(s):
@@ -100,6 +102,7 @@ def estimate(s):
     r["tau_s"] = [tu / 1e6 for tu in s.taus_us]
     r["tau_sigma_s"] = [sigma * su / 1e6 for su in s.steps_us]
     r["source"] = "estimated"
+    s.tau_t = p / q
     return EllipsoidFit.from_sums(lagrange_sums(centre, nodes, p, q)), q
 
 

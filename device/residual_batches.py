@@ -25,16 +25,32 @@ _SLOTS = 2 * BATCHES
 _W = 9               # x, y, z, xx, xy, xz, yy, yz, zz of h - c (shared.moments.ORDER 1..9)
 
 
+def _monomials(x, y, z):
+    """The 9 degree-1 and -2 monomials of (x, y, z) in ORDER 1..9."""
+    return (x, y, z, x * x, x * y, x * z, y * y, y * z, z * z)
+
+
 class ResidualBatches:
     def __init__(self, fit, centre):
-        self._fit = fit
+        self._fits = [fit]
         self._c = centre
+        self._w = _W
         self._sums = array("f", bytes(4 * _W * _SLOTS))
         self._counts = array("i", bytes(4 * _SLOTS))   # samples summed into each slot
         self._length = FIRST
         self._cur = 0                   # the slot being filled
         self._open = 0                  # samples added since the mark, not in a slot yet
-        self._mark = [0] * 10           # the fit's first 10 sums when a slot last took its samples
+        self._marks = [[0] * 10]        # the fits' first 10 sums when a slot last took its samples
+
+    def attach(self, below, above):
+        """Follow the tau estimate's nodes too (lagfit.py; before the first sample): the fits of
+        the samples x + t e at t = -1 and 1 tau steps (shared.tausums), so that each batch holds
+        its sums as A + B t + C t^2 (degree <= 2 in t: three nodes tell it) and the means can be
+        read at the estimated tau. 27 floats a batch instead of 9."""
+        self._fits = [self._fits[0], below, above]
+        self._w = 3 * _W
+        self._sums = array("f", bytes(4 * self._w * _SLOTS))
+        self._marks = [[0] * 10, [0] * 10, [0] * 10]
 
     def added(self):
         """A sample went into the fit: count it; close the batch when it is full."""
@@ -42,8 +58,8 @@ class ResidualBatches:
         if self._counts[self._cur] + self._open == self._length:
             self._close()
 
-    def removed(self, x, y, z):
-        """The latest sample (x, y, z) left the fit again (gates.py's back-off)."""
+    def removed(self, x, y, z, ex=0, ey=0, ez=0):
+        """The latest sample (x, y, z; its tau step ex, ey, ez) left the fit again (gates.py's back-off)."""
         if self._open:
             self._open -= 1                 # not in a slot yet
             return
@@ -54,21 +70,16 @@ class ResidualBatches:
             i -= 1
             self._cur = i                   # the batch it closed opens again, one short
         self._counts[i] -= 1
-        m = self._mark
-        m[0] -= 1
         c = self._c
-        v = (x, y, z)
-        s = self._sums
-        j = i * _W
-        for a in range(3):
-            m[1 + a] -= v[a]
-            s[j + a] -= v[a] - c[a]
-        k = 3
-        for a in range(3):
-            for b in range(a, 3):
-                m[1 + k] -= v[a] * v[b]
-                s[j + k] -= (v[a] - c[a]) * (v[b] - c[b])
-                k += 1
+        samples = ((x, y, z), (x - ex, y - ey, z - ez), (x + ex, y + ey, z + ez))[:len(self._fits)]
+        centred = []
+        for m, v in zip(self._marks, samples):
+            m[0] -= 1
+            raw = _monomials(v[0], v[1], v[2])
+            for k in range(_W):
+                m[1 + k] -= raw[k]
+            centred.append(_monomials(v[0] - c[0], v[1] - c[1], v[2] - c[2]))
+        self._store(i, centred, -1)
 
     def _close(self):
         self._take()
@@ -77,47 +88,63 @@ class ResidualBatches:
             self._merge()
 
     def _take(self):
-        """Sum the open samples into the slot being filled: the fit's sums since the mark."""
-        now = self._fit.sums()
-        m = self._mark
-        d = [now[i] - m[i] for i in range(10)]
-        self._mark = now[:10]
-        n = d[0]
+        """Sum the open samples into the slot being filled: each fit's sums since its mark,
+        centred exactly (sum (x - cx) = Sx - cx n; sum (x - cx)(y - cy) = Sxy - cx Sy - cy Sx
+        + cx cy n) before any rounding."""
         c = self._c
-        s = self._sums
-        i = self._cur
-        j = i * _W
-        # exact centring: sum (x - cx) = Sx - cx n; sum (x - cx)(y - cy) = Sxy - cx Sy - cy Sx + cx cy n
-        for a in range(3):
-            s[j + a] += d[1 + a] - c[a] * n
-        k = 3
-        for a in range(3):
-            for b in range(a, 3):
-                s[j + k] += d[1 + k] - c[a] * d[1 + b] - c[b] * d[1 + a] + c[a] * c[b] * n
-                k += 1
-        self._counts[i] += n
+        centred = []
+        n = 0
+        for f, fit in enumerate(self._fits):
+            now = fit.sums()
+            m = self._marks[f]
+            d = [now[i] - m[i] for i in range(10)]
+            self._marks[f] = now[:10]
+            n = d[0]
+            out = [d[1 + a] - c[a] * n for a in range(3)]
+            for a in range(3):
+                for b in range(a, 3):
+                    out.append(d[1 + len(out)] - c[a] * d[1 + b] - c[b] * d[1 + a] + c[a] * c[b] * n)
+            centred.append(out)
+        self._store(self._cur, centred, 1)
+        self._counts[self._cur] += n
         self._open = 0
+
+    def _store(self, i, centred, sign):
+        """Add sign x the centred sums (one list per fit) into slot i: A, and with the nodes
+        B = (S(1) - S(-1)) / 2 and C = (S(1) + S(-1)) / 2 - A."""
+        s = self._sums
+        j = i * self._w
+        a = centred[0]
+        for k in range(_W):
+            s[j + k] += sign * a[k]
+        if len(centred) == 3:
+            lo, hi = centred[1], centred[2]
+            for k in range(_W):
+                s[j + _W + k] += sign * (hi[k] - lo[k]) / 2
+                s[j + 2 * _W + k] += sign * ((hi[k] + lo[k]) / 2 - a[k])
 
     def _merge(self):
         """All slots full: neighbours merge, the batches double in length."""
         s = self._sums
+        w = self._w
         cnt = self._counts
         for i in range(BATCHES):
-            a = 2 * i * _W
-            for k in range(_W):
-                s[i * _W + k] = s[a + k] + s[a + _W + k]
+            a = 2 * i * w
+            for k in range(w):
+                s[i * w + k] = s[a + k] + s[a + w + k]
             cnt[i] = cnt[2 * i] + cnt[2 * i + 1]
-        for i in range(BATCHES * _W, _SLOTS * _W):
+        for i in range(BATCHES * w, _SLOTS * w):
             s[i] = 0.0
         for i in range(BATCHES, _SLOTS):
             cnt[i] = 0
         self._cur = BATCHES
         self._length *= 2
 
-    def means(self, cal):
+    def means(self, cal, t=0.0):
         """([mean |h_c| - F per batch, nT], [its samples]) under cal (sum units, as the fit's),
-        the open batch's samples included: (|h_c|^2 - F^2) / 2F, with h - o = v + d,
-        v = h - c, d = c - o: v^T G v + 2 (G d).v + d^T G d, G = M^T M."""
+        of the samples at t tau steps (lagfit.py; 0: as de-lagged), the open batch's included:
+        (|h_c|^2 - F^2) / 2F, with h - o = v + d, v = h - c, d = c - o: v^T G v + 2 (G d).v +
+        d^T G d, G = M^T M."""
         if self._open:
             self._take()
         mat = cal.matrix
@@ -126,6 +153,12 @@ class ResidualBatches:
         gd = [sum(g[a][b] * d[b] for b in range(3)) for a in range(3)]
         const = sum(d[a] * gd[a] for a in range(3)) - cal.field * cal.field
         two_f = 2.0 * cal.field
+        # the weights of the 9 sums: 2 G d for the linear ones, G (twice off the diagonal)
+        wt = [2.0 * gd[0], 2.0 * gd[1], 2.0 * gd[2]]
+        for a in range(3):
+            for b in range(a, 3):
+                wt.append(g[a][b] if a == b else 2.0 * g[a][b])
+        nodes = self._w > _W
         means = []
         counts = []
         s = self._sums
@@ -133,13 +166,13 @@ class ResidualBatches:
             n = self._counts[i]
             if not n:
                 continue
-            j = i * _W
-            q = 2.0 * (gd[0] * s[j] + gd[1] * s[j + 1] + gd[2] * s[j + 2])
-            k = 3
-            for a in range(3):
-                for b in range(a, 3):
-                    q += (g[a][b] if a == b else 2.0 * g[a][b]) * s[j + k]
-                    k += 1
+            j = i * self._w
+            q = 0.0
+            for k in range(_W):
+                v = s[j + k]
+                if nodes:
+                    v += t * (s[j + _W + k] + t * s[j + 2 * _W + k])
+                q += wt[k] * v
             means.append((q / n + const) / two_f)
             counts.append(n)
         return means, counts

@@ -93,6 +93,7 @@ class Session:
         self.slow_down = False       # most samples of the last report turned too fast
         self.turn_sd = 0.0           # sd of the squared turn between accepted samples (residual_rho)
         self.white = None            # the residuals' sample-to-sample noise, nT (residual_rho)
+        self.tau_t = 0.0             # the samples' tau, in lagfit.py's steps from the configured one
 
     def elapsed_s(self, now_ms, diff):
         return diff(now_ms, self.started) / 1000.0
@@ -366,7 +367,7 @@ class Session:
         pe = d.get("predicted_error")
         rms = d.get("rms")
         if pe is not None and rms is not None:
-            means, counts = self.gates.batches.means(cal)
+            means, counts = self.gates.batches.means(cal, self.tau_t)
             tau = correlation_time(means, counts, rms)
             pinned = d.get("mode") in (QUICK, RESHAPED)   # the field kept from the one in force
             floor = systematic_floor(rms, self.white) if pinned and self.white is not None else 0.0
