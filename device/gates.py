@@ -39,13 +39,13 @@ gate's ~7 degree turn per sample.
 The accepted samples' last HIST stay in a ring (`hist`: x, y, z, sample index,
 cell): the back-off removes from it, and the session reads it for the
 residuals' sample-to-sample correlation (session.py); their batch sums over the
-whole session (residual_batches.py) give the predicted error's widening.
+whole session (residuals.py) give the predicted error's widening.
 """
 
 import math
 from array import array
 
-from residual_batches import ResidualBatches
+from residuals import ResidualBatches
 from shared.delag import configured_tau_s, lag_dps
 
 HIST = 256           # recent accepted samples kept for removal (5 ints each)

@@ -22,7 +22,6 @@ gates.py's; whether the result may be used, acceptance.py's (set-cal uses it too
 
 import math
 
-import lagfit
 from acceptance import check_calibration
 from gates import HIST, Gates, disturbance_limit
 from shared import codes
@@ -30,7 +29,6 @@ from shared.codes import AUTO, CANCELLED, COLLECTING, DONE, FAILED, FULL, QUICK,
 from shared.coverage import Coverage
 from shared.delag import configured_tau_s, tau_us
 from shared.fit import EllipsoidFit, FitError
-from shared.honest import correlation_time, honest_error, systematic_floor
 from shared.response import check_response
 
 _MIN_PROVISIONAL = 60
@@ -39,7 +37,6 @@ _MIN_PROVISIONAL = 60
 # of the converged fit on a 40 % cap (identical with full coverage), and each further
 # step costs ~4M instructions on a Cortex-M (docs/firmware.md). The final solve converges.
 _PROVISIONAL_ITER = 1
-_MIN_PAIRS = 50      # consecutive residual pairs before their correlation counts
 _MAX_RHO = 0.999     # widening at most sqrt(1999) ~ 45x
 CLIP_FRACTION = 200   # more than 1 in 200 samples clipped refuses the calibration
 
@@ -68,7 +65,13 @@ class Session:
             "tau_sigma_s": [cfg["response_tol"] * t / 1e6 for t in self.taus_us]}
         # the tau estimate (lagfit.py): the Delag's tau steps and the other nodes' sums (None:
         # not estimated), and the fit (and its unit) the finish solves
-        self.steps_us, self.tau_sums = lagfit.setup(cfg, self.taus_us, self.kind)
+        self.steps_us = self.tau_sums = self._lagfit = None
+        if self.taus_us is not None and cfg["tau_estimate"] and self.kind != QUICK:
+            # imported only where it runs: lagfit.py and shared/tausums.py are ~4 KB of a board's
+            # heap as .mpy, which a quick re-calibration on a Pico's 190 KB has not to spare
+            import lagfit
+            self._lagfit = lagfit
+            self.steps_us, self.tau_sums = lagfit.setup(cfg, self.taus_us, self.kind)
         self._final = None
         self.search_solves = 0      # the tau estimate's solves at the finish
         # bound once: the per-sample call allocates nothing
@@ -102,66 +105,16 @@ class Session:
         return diff(now_ms, self.started) > self._max_ms
 
     def residual_rho(self, cal):
-        """Lag-1 correlation of the residuals |h_c| - F of consecutive accepted samples among
-        the last HIST (the gates' removal history), against the final fit, and the pairs'
-        correlation with the squared turn between them; (None, pairs, None) with too few pairs.
-
-        The fit's predicted error assumes independent residuals. A sensor that lags the
-        turn (a bandwidth set too high for it), a field that wanders or a flexing mount
-        leave residuals that follow each other from sample to sample; with their lag-1
-        correlation rho (AR(1)) the samples count as N (1 - rho) / (1 + rho), and finish()
-        widens the predicted error by sqrt((1 + rho) / (1 - rho)). Against the final fit,
-        not a provisional one: a provisional fit's own error, smooth in orientation, would
-        read as correlation when the turn is slow.
-
-        Which of those it is: a sensor that lags reads |h| short by B (tau w)^2 / 2 at a turn
-        rate w, so its residuals fall as the turn between samples grows (|dv|^2 / |v|^2 ~ w^2,
-        in codes: the gains' few percent do not change the sign); a wandering field or
-        iron moving with the sensor leaves them unrelated to the turn.
-        """
-        g = self.gates
-        h = g.hist
-        n = g.hist_n
-        first = (g.hist_i - n) % HIST
-        prev_i = -2
-        prev_r = 0.0
-        pairs = 0
-        s = ss = s1 = dd = 0.0
-        t = tt = st = 0.0    # the squared turn t of each pair, and its products with the pair's residual
-        pj = 0
-        for k in range(n):
-            j = ((first + k) % HIST) * 5
-            r = cal.magnitude(h[j], h[j + 1], h[j + 2]) - cal.field
-            i = h[j + 3]
-            if i == prev_i + 1:
-                pairs += 1
-                s += r + prev_r
-                ss += r * r + prev_r * prev_r
-                s1 += r * prev_r
-                dd += (r - prev_r) * (r - prev_r)
-                # in floats: the codes' squares would be big integers (or overflow) on a board
-                x0, y0, z0 = float(h[j]), float(h[j + 1]), float(h[j + 2])
-                dx, dy, dz = x0 - h[pj], y0 - h[pj + 1], z0 - h[pj + 2]
-                turn = (dx * dx + dy * dy + dz * dz) / (x0 * x0 + y0 * y0 + z0 * z0 or 1.0)
-                t += turn
-                tt += turn * turn
-                st += turn * (r + prev_r)
-            prev_i = i
-            prev_r = r
-            pj = j
-        if pairs < _MIN_PAIRS:
-            return None, pairs, None
-        self.white = math.sqrt(dd / (2 * pairs))   # von Neumann: sees the white part only
-        m = s / (2 * pairs)
-        var = ss / (2 * pairs) - m * m
-        if not var > 0.0:
-            return None, pairs, None
-        # the pair's mean residual (its variance ~ var) against its turn
-        tm = t / pairs
-        tvar = tt / pairs - tm * tm
-        self.turn_sd = math.sqrt(tvar) if tvar > 0.0 else 0.0   # of (w T)^2, rad^2: the tau term (_widen)
-        rate = (st / (2 * pairs) - m * tm) / math.sqrt(var * tvar) if tvar > 0.0 else None
-        return (s1 / pairs - m * m) / var, pairs, rate
+        """(rho, pairs, turn correlation) of the recent residuals' pairs (residual_stats.recent_pairs);
+        keeps their white noise (the floor, _widen) and the spread of their squared turn (the
+        tau term, _widen)."""
+        import residual_stats    # after the solve, not with the session (residual_stats.py)
+        rho, pairs, rate, white, turn_sd = residual_stats.recent_pairs(self.gates, cal)
+        if white is not None:
+            self.white = white
+        if turn_sd is not None:
+            self.turn_sd = turn_sd
+        return rho, pairs, rate
 
     def recent_rms(self, cal):
         """(RMS of |h_c| - F in nT, n) over the last n <= HIST accepted samples under cal (in sum
@@ -220,7 +173,8 @@ class Session:
 
     def attach(self, delag):
         """The Delag that de-lags this session's samples (survey.py): the tau estimate's steps."""
-        lagfit.attach(self, delag)
+        if self._lagfit is not None:
+            self._lagfit.attach(self, delag)
 
     def _solve(self, max_iter=60, final=False, independent=1.0):
         # provisional solves of an auto session are full ones: it becomes quick only at the end
@@ -304,7 +258,7 @@ class Session:
                               " or keep magnets and iron away; the sensor saturates there"
                               % (self.clipped, "" if self.clip_axis is None else " on " + "xyz"[self.clip_axis]))
         try:
-            self._final = lagfit.estimate(self)
+            self._final = None if self._lagfit is None else self._lagfit.estimate(self)
             cal = self._solve(final=True)
             d = cal.diagnostics
             if d.get("mode") == RESHAPED or (d.get("mode") == QUICK and d.get("gains", 1) > 1):
@@ -319,7 +273,9 @@ class Session:
         except FitError as e:
             return self._fail_fast(e.reason, str(e))
         self._widen(cal)
-        problem = self.check(cal) or lagfit.not_first_order(self.response, cal)
+        problem = self.check(cal)
+        if not problem and self._lagfit is not None:
+            problem = self._lagfit.not_first_order(self.response, cal)
         if problem:
             return self._fail_fast(problem[0], problem[1] + self._response_left(cal))
         self.state = DONE
@@ -356,7 +312,7 @@ class Session:
 
     def _widen(self, cal):
         # the residuals' correlation over the whole session, from their batch means under this
-        # fit (residual_batches.py), widens the core's predicted error: shared.honest, the
+        # fit (residuals.py), widens the core's predicted error: shared.honest, the
         # function `fluxcal fit` and `report` call on a file's residuals
         d = cal.diagnostics
         rho, pairs, rate = self.residual_rho(cal)
@@ -367,7 +323,9 @@ class Session:
         pe = d.get("predicted_error")
         rms = d.get("rms")
         if pe is not None and rms is not None:
-            means, counts = self.gates.batches.means(cal, self.tau_t)
+            import residual_stats
+            from shared.honest import correlation_time, honest_error, systematic_floor
+            means, counts = residual_stats.batch_means(self.gates.batches, cal, self.tau_t)
             tau = correlation_time(means, counts, rms)
             pinned = d.get("mode") in (QUICK, RESHAPED)   # the field kept from the one in force
             floor = systematic_floor(rms, self.white) if pinned and self.white is not None else 0.0

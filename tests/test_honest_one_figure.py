@@ -1,7 +1,7 @@
 """One predicted error for one set of samples: the firmware's session and `fluxcal fit`/`report`.
 
 The board widens the core's predicted error by the residuals' correlation in time from the batch
-sums it keeps (device/residual_batches.py); the laptop from the residuals of a file
+sums it keeps (device/residuals.py); the laptop from the residuals of a file
 (desktop/methods/residuals.py); both through shared/honest.py. Fed the samples the board
 accepted, in order, the laptop must print the board's figure: to the float32 rounding of the
 board's batch sums (shared/honest.py: 0.003 nT in a batch mean against the 0.03 nT spread a
@@ -104,7 +104,7 @@ def test_correlation_time_of_white_and_ar1_batch_means():
 def test_batches_follow_the_back_off_last_in_first_out():
     """Removals (the gates' back-off) that reach into closed batches leave the batch sums those
     of the samples still in the fit, whatever the batch boundaries and merges in between."""
-    batches_mod = import_device("residual_batches")
+    batches_mod = import_device("residuals")
     fit_mod = __import__("shared.fit", fromlist=["EllipsoidFit"])
     rng = np.random.default_rng(5)
     pts = _samples(9, 3000, 0.5, 1.0).tolist()
@@ -127,7 +127,7 @@ def test_batches_follow_the_back_off_last_in_first_out():
         offset = [0.0, 0.0, 0.0]
         field = 1.0
 
-    means, counts = rb.means(Identity)
+    means, counts = import_device("residual_stats").batch_means(rb, Identity)
     assert sum(counts) == len(kept) == fit.n
     # the batches are consecutive runs of the kept samples: their mean (|h|^2 - 1) / 2 in order
     v = np.asarray(kept, dtype=float)

@@ -114,7 +114,7 @@ DEVICE_MODULES = {
 }
 ENTRY_POINTS = {"main", "code", "sim_main", "boot_micropython"}   # boot a board: the only importers of a HAL
 # the calibration core: samples, fit, acceptance; it imports no protocol, command, app or HAL
-CORE = {"gates", "residual_batches", "session", "lagfit", "acceptance"}
+CORE = {"gates", "residuals", "residual_stats", "session", "lagfit", "acceptance"}
 # the owners of the firmware's state, by module: only app.py builds them (an entry point the App)
 OWNERS = {"acquisition": "Acquisition", "health": "AdcSupervisor", "survey": "Output",
           "calibration_flow": "CalibrationFlow", "bootguard": "Guard", "protocol": "Protocol", "button": "Button",

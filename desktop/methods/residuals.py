@@ -21,7 +21,7 @@ With autocorrelation rho(k) and weights that vary slowly compared with it
 so the N samples weigh as N / tau_int independent ones and the predicted
 error grows by sqrt(tau_int). tau_int is estimated from the residuals' batch
 means by shared.honest, the function the firmware runs on its session's batch
-sums (device/residual_batches.py), so that one set of samples gets one figure on
+sums (device/residuals.py), so that one set of samples gets one figure on
 the board and here: tau_int = sum_k n_k (m_k - m)^2 / ((K - 1) var) over K
 batches of consecutive samples, 1 unless beyond two standard errors of white
 noise's. The residual per sample is (|h_c|^2 - F^2) / 2F, which is what the

@@ -3,7 +3,7 @@
     rb = ResidualBatches(fit, centre)   # fit: the session's EllipsoidFit; centre: sum units
     rb.added()                          # after each fit.add (gates.py)
     rb.removed(x, y, z)                 # after each fit.remove, last in first out
-    means, counts = rb.means(cal)       # mean |h_c| - F per batch, nT, under the final fit
+    (residual_stats.py reads them at the finish, under the final fit)
 
 shared/honest.py says why: the mean residual of a batch under any calibration follows
 from the batch's sums of h - c and its products (c the session's centre), so these 9
@@ -21,8 +21,8 @@ from array import array
 
 from shared.honest import BATCHES, FIRST
 
-_SLOTS = 2 * BATCHES
-_W = 9               # x, y, z, xx, xy, xz, yy, yz, zz of h - c (shared.moments.ORDER 1..9)
+SLOTS = 2 * BATCHES
+WIDTH = 9               # x, y, z, xx, xy, xz, yy, yz, zz of h - c (shared.moments.ORDER 1..9)
 
 
 def _monomials(x, y, z):
@@ -34,9 +34,9 @@ class ResidualBatches:
     def __init__(self, fit, centre):
         self._fits = [fit]
         self._c = centre
-        self._w = _W
-        self._sums = array("f", bytes(4 * _W * _SLOTS))
-        self._counts = array("i", bytes(4 * _SLOTS))   # samples summed into each slot
+        self._w = WIDTH
+        self._sums = array("f", bytes(4 * WIDTH * SLOTS))
+        self._counts = array("i", bytes(4 * SLOTS))   # samples summed into each slot
         self._length = FIRST
         self._cur = 0                   # the slot being filled
         self._open = 0                  # samples added since the mark, not in a slot yet
@@ -48,8 +48,8 @@ class ResidualBatches:
         its sums as A + B t + C t^2 (degree <= 2 in t: three nodes tell it) and the means can be
         read at the estimated tau. 27 floats a batch instead of 9."""
         self._fits = [self._fits[0], below, above]
-        self._w = 3 * _W
-        self._sums = array("f", bytes(4 * self._w * _SLOTS))
+        self._w = 3 * WIDTH
+        self._sums = array("f", bytes(4 * self._w * SLOTS))
         self._marks = [[0] * 10, [0] * 10, [0] * 10]
 
     def added(self):
@@ -76,7 +76,7 @@ class ResidualBatches:
         for m, v in zip(self._marks, samples):
             m[0] -= 1
             raw = _monomials(v[0], v[1], v[2])
-            for k in range(_W):
+            for k in range(WIDTH):
                 m[1 + k] -= raw[k]
             centred.append(_monomials(v[0] - c[0], v[1] - c[1], v[2] - c[2]))
         self._store(i, centred, -1)
@@ -84,7 +84,7 @@ class ResidualBatches:
     def _close(self):
         self._take()
         self._cur += 1
-        if self._cur == _SLOTS:
+        if self._cur == SLOTS:
             self._merge()
 
     def _take(self):
@@ -115,13 +115,13 @@ class ResidualBatches:
         s = self._sums
         j = i * self._w
         a = centred[0]
-        for k in range(_W):
+        for k in range(WIDTH):
             s[j + k] += sign * a[k]
         if len(centred) == 3:
             lo, hi = centred[1], centred[2]
-            for k in range(_W):
-                s[j + _W + k] += sign * (hi[k] - lo[k]) / 2
-                s[j + 2 * _W + k] += sign * ((hi[k] + lo[k]) / 2 - a[k])
+            for k in range(WIDTH):
+                s[j + WIDTH + k] += sign * (hi[k] - lo[k]) / 2
+                s[j + 2 * WIDTH + k] += sign * ((hi[k] + lo[k]) / 2 - a[k])
 
     def _merge(self):
         """All slots full: neighbours merge, the batches double in length."""
@@ -133,46 +133,9 @@ class ResidualBatches:
             for k in range(w):
                 s[i * w + k] = s[a + k] + s[a + w + k]
             cnt[i] = cnt[2 * i] + cnt[2 * i + 1]
-        for i in range(BATCHES * w, _SLOTS * w):
+        for i in range(BATCHES * w, SLOTS * w):
             s[i] = 0.0
-        for i in range(BATCHES, _SLOTS):
+        for i in range(BATCHES, SLOTS):
             cnt[i] = 0
         self._cur = BATCHES
         self._length *= 2
-
-    def means(self, cal, t=0.0):
-        """([mean |h_c| - F per batch, nT], [its samples]) under cal (sum units, as the fit's),
-        of the samples at t tau steps (lagfit.py; 0: as de-lagged), the open batch's included:
-        (|h_c|^2 - F^2) / 2F, with h - o = v + d, v = h - c, d = c - o: v^T G v + 2 (G d).v +
-        d^T G d, G = M^T M."""
-        if self._open:
-            self._take()
-        mat = cal.matrix
-        g = [[sum(mat[r][a] * mat[r][b] for r in range(3)) for b in range(3)] for a in range(3)]
-        d = [self._c[a] - cal.offset[a] for a in range(3)]
-        gd = [sum(g[a][b] * d[b] for b in range(3)) for a in range(3)]
-        const = sum(d[a] * gd[a] for a in range(3)) - cal.field * cal.field
-        two_f = 2.0 * cal.field
-        # the weights of the 9 sums: 2 G d for the linear ones, G (twice off the diagonal)
-        wt = [2.0 * gd[0], 2.0 * gd[1], 2.0 * gd[2]]
-        for a in range(3):
-            for b in range(a, 3):
-                wt.append(g[a][b] if a == b else 2.0 * g[a][b])
-        nodes = self._w > _W
-        means = []
-        counts = []
-        s = self._sums
-        for i in range(self._cur + 1):
-            n = self._counts[i]
-            if not n:
-                continue
-            j = i * self._w
-            q = 0.0
-            for k in range(_W):
-                v = s[j + k]
-                if nodes:
-                    v += t * (s[j + _W + k] + t * s[j + 2 * _W + k])
-                q += wt[k] * v
-            means.append((q / n + const) / two_f)
-            counts.append(n)
-        return means, counts
