@@ -8,22 +8,20 @@
     cal = Calibration.from_dict(d)   # validated deeply: ValueError naming the problem
     cal.at_temperature(t)     # with a "tempco": the calibration at t C (docs/temperature.md)
 
-``offset`` is in the raw input unit (ADC codes, or nT for a file), ``matrix``
-maps that unit to the output unit, ``field`` is the magnitude the calibration
-was fitted to (the known local field, or the fitted radius).
+``offset`` is in the raw input unit (ADC codes, or nT for a file), ``matrix`` maps that unit to
+the output unit, ``field`` is the magnitude the calibration was fitted to (the known local
+field, or the fitted radius).
 
-Every record that enters from outside (the wire's set-cal, cal.json at boot,
-a file on the laptop) goes through from_dict, the one validator: every field,
-nested ones included, against bounds a magnetometer can have. A record that
-passes cannot make the survey raise later (docs/reliability.md, row "set-cal
-bricks"). The constructor, used by the fit itself, checks only what the
-arithmetic needs.
+Every record that enters from outside (the wire's set-cal, cal.json at boot, a file on the
+laptop) goes through from_dict, the one validator: every field, nested ones included, against
+bounds a magnetometer can have. A record that passes cannot make the survey raise later
+(docs/reliability.md, row "set-cal bricks"). The constructor, used by the fit itself, checks
+only what the arithmetic needs.
 
-Temperature coefficients (optional key "tempco", fitted by shared/tempco.py):
-{"t0_c": C, "offset_per_c": [3] input units per C, "gain_per_c": [3] relative
-gain change per C of each raw axis, "range_c": [lo, hi] C measured over,
-"sources": int, "method": "calibrations" | "warmup"}. With tau = T - t0_c the
-sensor's raw reading has offset b + offset_per_c tau and raw axis i gain
+Temperature coefficients (optional key "tempco", fitted by shared/tempco.py): {"t0_c": C,
+"offset_per_c": [3] input units per C, "gain_per_c": [3] relative gain change per C of each raw
+axis, "range_c": [lo, hi] C measured over, "sources": int, "method": "calibrations" | "warmup"}.
+With tau = T - t0_c the sensor's raw reading has offset b + offset_per_c tau and raw axis i gain
 (1 + gain_per_c[i] tau) times its gain at t0_c, so
 
     h_c = M diag(1 / (1 + gain_per_c tau)) (h - b - offset_per_c tau)
@@ -53,6 +51,8 @@ COND_LIMIT = 3.0
 SYMMETRY_TOL = 1e-5   # M is symmetric by construction (every fit here); relative to max |m_ij|
 TEMP_RANGE_C = (-60.0, 130.0)   # the ADS1292's die: -40..85 C operating [DS 6.3], with margin
 _TEXT_MAX = 256
+# a finite number's bound, parsed at run time: MicroPython's freezing tool refuses a literal beyond float32
+_HUGE = float("1e300")
 # known fields and their types: a wrong type is refused, not carried into the survey
 _META_NUMBERS = ("temperature_c", "time", "uptime_ms", "rate", "n")
 _META_TEXT = ("firmware", "source", "units", "method", "time_iso")
@@ -315,11 +315,6 @@ def _short(v):
     """A value for an error message, at most 40 characters of it."""
     t = repr(v)
     return t if len(t) <= 40 else t[:37] + "..."
-
-
-# parsed at run time, not a literal: 1e300 is beyond a 32-bit float, where it reads as inf (so the test
-# above is "finite" there), and MicroPython's freezing tool refuses such a literal constant
-_HUGE = float("1e300")
 
 
 def _scalar(v):

@@ -217,3 +217,20 @@ def test_import_device_follows_the_folder_rules():
             if name not in firmware:
                 bad.append("%s: import_device(%r), not a firmware module" % (os.path.relpath(path, ROOT), name))
     assert not bad, "\n".join(bad)
+
+
+MAX_MODULE_LINES = 400   # STYLE.md: modules of one job, at most 400 lines
+
+
+@pytest.mark.parametrize("folder", ["shared", "device", "desktop", "tests"])
+def test_every_module_is_at_most_400_lines(folder):
+    long = []
+    for dirpath, _, files in os.walk(os.path.join(ROOT, folder)):
+        for f in files:
+            if f.endswith(".py"):
+                path = os.path.join(dirpath, f)
+                with open(path, encoding="utf-8") as fh:
+                    n = sum(1 for _ in fh)
+                if n > MAX_MODULE_LINES:
+                    long.append("%s: %d lines" % (os.path.relpath(path, ROOT), n))
+    assert not long, "\n".join(long)
