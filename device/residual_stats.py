@@ -20,11 +20,10 @@ def batch_means(rb, cal, t=0.0):
     of the samples at t tau steps (lagfit.py; 0: as de-lagged), the open batch's included:
     (|h_c|^2 - F^2) / 2F, with h - o = v + d, v = h - c, d = c - o: v^T G v + 2 (G d).v +
     d^T G d, G = M^T M."""
-    if rb._open:
-        rb._take()      # the open batch: its samples into its slot
+    rb.flush()
     mat = cal.matrix
     g = [[sum(mat[r][a] * mat[r][b] for r in range(3)) for b in range(3)] for a in range(3)]
-    d = [rb._c[a] - cal.offset[a] for a in range(3)]
+    d = [rb.centre[a] - cal.offset[a] for a in range(3)]
     gd = [sum(g[a][b] * d[b] for b in range(3)) for a in range(3)]
     const = sum(d[a] * gd[a] for a in range(3)) - cal.field * cal.field
     two_f = 2.0 * cal.field
@@ -33,15 +32,15 @@ def batch_means(rb, cal, t=0.0):
     for a in range(3):
         for b in range(a, 3):
             wt.append(g[a][b] if a == b else 2.0 * g[a][b])
-    nodes = rb._w > WIDTH
+    nodes = rb.width > WIDTH
     means = []
     counts = []
-    s = rb._sums
-    for i in range(rb._cur + 1):
-        n = rb._counts[i]
+    s = rb.sums
+    for i in range(rb.cur + 1):
+        n = rb.counts[i]
         if not n:
             continue
-        j = i * rb._w
+        j = i * rb.width
         q = 0.0
         for k in range(WIDTH):
             v = s[j + k]

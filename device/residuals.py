@@ -3,7 +3,8 @@
     rb = ResidualBatches(fit, centre)   # fit: the session's EllipsoidFit; centre: sum units
     rb.added()                          # after each fit.add (gates.py)
     rb.removed(x, y, z)                 # after each fit.remove, last in first out
-    (residual_stats.py reads them at the finish, under the final fit)
+    rb.flush()                          # then rb.sums / counts / cur / width / centre: the batches
+                                        # (residual_stats.py reads them at the finish)
 
 shared/honest.py says why: the mean residual of a batch under any calibration follows
 from the batch's sums of h - c and its products (c the session's centre), so these 9
@@ -33,12 +34,12 @@ def _monomials(x, y, z):
 class ResidualBatches:
     def __init__(self, fit, centre):
         self._fits = [fit]
-        self._c = centre
-        self._w = WIDTH
-        self._sums = array("f", bytes(4 * WIDTH * SLOTS))
-        self._counts = array("i", bytes(4 * SLOTS))   # samples summed into each slot
+        self.centre = centre
+        self.width = WIDTH
+        self.sums = array("f", bytes(4 * WIDTH * SLOTS))
+        self.counts = array("i", bytes(4 * SLOTS))   # samples summed into each slot
         self._length = FIRST
-        self._cur = 0                   # the slot being filled
+        self.cur = 0                    # the slot being filled
         self._open = 0                  # samples added since the mark, not in a slot yet
         self._marks = [[0] * 10]        # the fits' first 10 sums when a slot last took its samples
 
@@ -48,14 +49,14 @@ class ResidualBatches:
         its sums as A + B t + C t^2 (degree <= 2 in t: three nodes tell it) and the means can be
         read at the estimated tau. 27 floats a batch instead of 9."""
         self._fits = [self._fits[0], below, above]
-        self._w = 3 * WIDTH
-        self._sums = array("f", bytes(4 * self._w * SLOTS))
+        self.width = 3 * WIDTH
+        self.sums = array("f", bytes(4 * self.width * SLOTS))
         self._marks = [[0] * 10, [0] * 10, [0] * 10]
 
     def added(self):
         """A sample went into the fit: count it; close the batch when it is full."""
         self._open += 1
-        if self._counts[self._cur] + self._open == self._length:
+        if self.counts[self.cur] + self._open == self._length:
             self._close()
 
     def removed(self, x, y, z, ex=0, ey=0, ez=0):
@@ -63,14 +64,14 @@ class ResidualBatches:
         if self._open:
             self._open -= 1                 # not in a slot yet
             return
-        i = self._cur
-        if not self._counts[i]:
+        i = self.cur
+        if not self.counts[i]:
             if not i:
                 return
             i -= 1
-            self._cur = i                   # the batch it closed opens again, one short
-        self._counts[i] -= 1
-        c = self._c
+            self.cur = i                   # the batch it closed opens again, one short
+        self.counts[i] -= 1
+        c = self.centre
         samples = ((x, y, z), (x - ex, y - ey, z - ez), (x + ex, y + ey, z + ez))[:len(self._fits)]
         centred = []
         for m, v in zip(self._marks, samples):
@@ -81,17 +82,22 @@ class ResidualBatches:
             centred.append(_monomials(v[0] - c[0], v[1] - c[1], v[2] - c[2]))
         self._store(i, centred, -1)
 
+    def flush(self):
+        """The open batch's samples into its slot (before its sums are read: residual_stats.py)."""
+        if self._open:
+            self._take()
+
     def _close(self):
         self._take()
-        self._cur += 1
-        if self._cur == SLOTS:
+        self.cur += 1
+        if self.cur == SLOTS:
             self._merge()
 
     def _take(self):
         """Sum the open samples into the slot being filled: each fit's sums since its mark,
         centred exactly (sum (x - cx) = Sx - cx n; sum (x - cx)(y - cy) = Sxy - cx Sy - cy Sx
         + cx cy n) before any rounding."""
-        c = self._c
+        c = self.centre
         centred = []
         n = 0
         for f, fit in enumerate(self._fits):
@@ -105,15 +111,15 @@ class ResidualBatches:
                 for b in range(a, 3):
                     out.append(d[1 + len(out)] - c[a] * d[1 + b] - c[b] * d[1 + a] + c[a] * c[b] * n)
             centred.append(out)
-        self._store(self._cur, centred, 1)
-        self._counts[self._cur] += n
+        self._store(self.cur, centred, 1)
+        self.counts[self.cur] += n
         self._open = 0
 
     def _store(self, i, centred, sign):
         """Add sign x the centred sums (one list per fit) into slot i: A, and with the nodes
         B = (S(1) - S(-1)) / 2 and C = (S(1) + S(-1)) / 2 - A."""
-        s = self._sums
-        j = i * self._w
+        s = self.sums
+        j = i * self.width
         a = centred[0]
         for k in range(WIDTH):
             s[j + k] += sign * a[k]
@@ -125,9 +131,9 @@ class ResidualBatches:
 
     def _merge(self):
         """All slots full: neighbours merge, the batches double in length."""
-        s = self._sums
-        w = self._w
-        cnt = self._counts
+        s = self.sums
+        w = self.width
+        cnt = self.counts
         for i in range(BATCHES):
             a = 2 * i * w
             for k in range(w):
@@ -137,5 +143,5 @@ class ResidualBatches:
             s[i] = 0.0
         for i in range(BATCHES, SLOTS):
             cnt[i] = 0
-        self._cur = BATCHES
+        self.cur = BATCHES
         self._length *= 2

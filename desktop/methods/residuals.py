@@ -123,7 +123,8 @@ def batch_means(r):
     r = np.asarray(r, dtype=float)
     b = honest.batch_length(len(r))
     edges = np.arange(0, len(r), b)
-    return (np.add.reduceat(r, edges) / np.diff(np.r_[edges, len(r)])).tolist(), np.diff(np.r_[edges, len(r)]).tolist()
+    counts = np.diff(np.r_[edges, len(r)])
+    return (np.add.reduceat(r, edges) / counts).tolist(), counts.tolist()
 
 
 def residual_stats(r):
