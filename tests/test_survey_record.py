@@ -90,6 +90,7 @@ def test_a_survey_recorded_resumed_after_the_laptop_died_mapped_and_pulled(surve
     rec.send_signal(signal.SIGKILL)     # the laptop dies mid-walk: nothing is closed or said
     rec.wait(timeout=60)
     assert os.path.exists(out)      # saved at every mark
+    time.sleep(3.0)                 # gone for 1.5 s of the board's time at least (speed 0.5): 15 blocks
 
     again = _survey(port, "--resume", "-o", out, env=runtime_env)
     lines = _read_until(again, "survey complete")
@@ -112,8 +113,10 @@ def test_a_survey_recorded_resumed_after_the_laptop_died_mapped_and_pulled(surve
     t = z["t"]
     assert len(t) == round((t[-1] - t[0]) / BLOCK_S) + 1 and np.diff(t).max() < 1.5 * BLOCK_S, np.diff(t).max()
     assert t[0] <= marks[0] and t[-1] >= marks[-1]
-    from_log = np.isnan(z["codes"][:, 0])
-    assert from_log.sum() > 10 and not np.isnan(z["f_nT"]).any()    # the seconds the laptop missed
+    # the seconds the laptop missed came from the log. Counted when merged: a block the emulator's
+    # relay still held when the port was reopened (a loaded machine) arrives later on the stream,
+    # with its codes, and replaces the log's copy in the file (CI once kept 1 log block of the gap)
+    assert int(lines[0].split()[1]) >= 15 and not np.isnan(z["f_nT"]).any(), lines[0]
     # the Earth field of the simulator (desktop/sim/field.py) plus the site's iron, as the
     # uncalibrated Mag649 reads it (heading error of hundreds of nT)
     assert 40000 < z["f_nT"].min() and z["f_nT"].max() < 60000
