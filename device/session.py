@@ -312,7 +312,8 @@ class Session:
 
     def _widen(self, cal):
         # the residuals' correlation over the whole session, from their batch means under this
-        # fit (residuals.py), widens the core's predicted error: shared.honest, the
+        # fit (residuals.py), widens the core's predicted error (narrows it where their sums
+        # cancel, as a de-lag term's differences do): shared.honest, the
         # function `fluxcal fit` and `report` call on a file's residuals
         d = cal.diagnostics
         rho, pairs, rate = self.residual_rho(cal)
@@ -331,7 +332,7 @@ class Session:
             floor = systematic_floor(rms, self.white) if pinned and self.white is not None else 0.0
             d["tau_int"] = round(tau, 2)
             d["predicted_error_white"] = pe
-            if tau > 1.0 or floor > pe:
+            if tau != 1.0 or floor > pe:
                 d["predicted_error"] = honest_error(pe, d.get("prior_error"), tau, floor)
                 if floor:
                     d["systematic_floor"] = round(floor, 4)

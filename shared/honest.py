@@ -36,6 +36,19 @@ read 43-62 (median), of tau 399 in 30,000, 360; the Mag648 turned at 0.1 rev/s
 with its lag not undone, 4.1 nT predicted against 4.3 nT real
 (tests/test_device_slow_sensor.py).
 
+Residuals whose sum cancels read tau < 1, and then the error is narrowed. A de-lagged
+sample carries the derivative's noise k (8 (n_+1 - n_-1) - (n_+2 - n_-2)), 3 times a
+sample's own for the Mag648 (shared/delag.py), which telescopes along a run of
+samples: it is in the rms the core counts as independent but hardly in a fitted
+parameter. Batch means see that: the Mag648's read tau 0.09-0.24, and the core's
+figure was 1.9-3.3 times the real full-sphere error. Only the shortest batches'
+tau, under white residuals' 0.6 % point, narrows it, and only to its upper 99.4 %
+bound (tau / that point: 0.12 in 18 batches gives 0.35; their ends, where the
+differences do not cancel, make short batches read high too), and no lower than
+the longer batches read, so that the narrowed figure errs on the side of too large.
+White residuals are narrowed about once in a hundred (9 of 1,000 sets of 2,000
+samples, to 0.80 at least).
+
 A systematic floor (systematic_floor, desktop/methods/residuals.py explains it):
 where the scale is pinned (a known field, a quick re-calibration), a slowly
 varying one-signed error hides its mean in the scale; its size is what the rms
@@ -60,7 +73,7 @@ def batch_length(n):
 
 
 def _batch_time(means, counts, rms):
-    """tau from one set of batch means, or 1.0 when not beyond chance; and the batches used."""
+    """tau as one set of batch means reads it (not yet judged against chance), and the batches used."""
     total = 0
     mean = 0.0
     k = 0
@@ -79,28 +92,38 @@ def _batch_time(means, counts, rms):
     for m, c in zip(means, counts):
         if c:
             spread += c * (m - mean) * (m - mean)
-    tau = spread / ((k - 1) * var)
-    return (tau if tau > _white_bound(k - 1) else 1.0), k
+    return spread / ((k - 1) * var), k
 
 
-def _white_bound(dof):
-    """The 99.4 % point of chi^2_dof / dof (Wilson-Hilferty, z = 2.5): what white residuals'
-    estimate exceeds once in 160 at each batch length tried (2.37 for 12 batches, 1.76 for 31)."""
+def _chance_point(dof, z):
+    """chi^2_dof / dof at z standard normal deviates (Wilson-Hilferty): z = +2.5 the 99.4 % point
+    white residuals' estimate exceeds once in 160 (2.37 for 12 batches, 1.76 for 31), z = -2.5
+    the 0.6 % point it falls under as often (0.24 for 12 batches, 0.47 for 31)."""
     a = 2.0 / (9.0 * dof)
-    return (1.0 - a + Z_WHITE * math.sqrt(a)) ** 3
+    return max(0.0, 1.0 - a + z * math.sqrt(a)) ** 3
 
 
 def correlation_time(means, counts, rms):
     """The residuals' integrated correlation time (samples) from their batch means (nT) and
-    counts and their rms (nT): the largest over the batches and their merges into batches
-    twice, four times... as long while MIN_BATCHES remain (a batch shorter than the
-    correlation reads it low); at each length 1.0 where it is not beyond chance (_white_bound)."""
+    counts and their rms (nT). Over the batches and their merges into batches twice, four
+    times... as long while MIN_BATCHES remain (a batch shorter than a correlation reads it
+    low): the largest estimate beyond white residuals' 99.4 % point. With none beyond it, the
+    shortest batches' upper 99.4 % bound when that is under 1 (residuals whose sums cancel,
+    as a de-lag term's differences do; their ends make short batches read high), but no less
+    than what the longer ones read; else 1.0."""
     best = 1.0
+    first = None            # (tau, batches) of the shortest batches
+    longer = 0.0            # the largest estimate of the longer ones
     while True:
         tau, k = _batch_time(means, counts, rms)
         if k < MIN_BATCHES:
-            return best
-        best = max(best, tau)
+            break
+        if tau > _chance_point(k - 1, Z_WHITE):
+            best = max(best, tau)
+        if first is None:
+            first = (tau, k)
+        else:
+            longer = max(longer, tau)
         merged_m = []
         merged_c = []
         for i in range(0, len(means) - 1, 2):
@@ -108,6 +131,10 @@ def correlation_time(means, counts, rms):
             merged_m.append((means[i] * counts[i] + means[i + 1] * counts[i + 1]) / c if c else 0.0)
             merged_c.append(c)
         means, counts = merged_m, merged_c
+    if best > 1.0 or first is None:
+        return best
+    low = _chance_point(first[1] - 1, -Z_WHITE)
+    return min(1.0, max(first[0] / low, longer)) if low > 0.0 else 1.0
 
 
 def systematic_floor(rms, white):
@@ -118,8 +145,8 @@ def systematic_floor(rms, white):
 def honest_error(white_pred, prior_error, tau, floor):
     """The predicted full-sphere error (nT): the core's white-noise one (white_pred, which
     holds a previous calibration's own error prior_error in quadrature: that one does not
-    come from these samples and is not widened) widened by sqrt(tau), and at least floor
-    (0 unless the scale was pinned)."""
+    come from these samples and is not scaled) scaled by sqrt(tau) (narrowed where tau < 1),
+    and at least floor (0 unless the scale was pinned)."""
     prev = prior_error or 0.0
     data_sq = max(0.0, white_pred * white_pred - prev * prev)
-    return max(math.sqrt(data_sq * max(1.0, tau) + prev * prev), floor)
+    return max(math.sqrt(data_sq * tau + prev * prev), floor)

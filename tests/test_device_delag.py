@@ -66,7 +66,11 @@ def _estimated_within_targets(r, target_nt):
     # part (the estimate's uncertainty, not the configured 5 %) is now a small share of it
     d = r["record"].diagnostics
     assert 0.0 <= d["predicted_error_response"] < 0.1 * d["predicted_error"], d
-    assert _sphere_error(r) <= d["predicted_error"], (_sphere_error(r), d)
+    # and within the factor 2 of it: the de-lag term's noise, three times a sample's,
+    # telescopes along a run of samples, and the batch means narrow the core's figure that
+    # counted it as independent (shared/honest.py; 2.3-2.9 times the real error before)
+    real = _sphere_error(r)
+    assert d["tau_int"] < 1.0 and real <= d["predicted_error"] <= 2.0 * real, (real, d)
 
 
 @pytest.mark.parametrize("bandwidth_hz,rev_s,target_nt", [(4.0, 0.5, 1.0), (6.0, 1.0, 2.0)])
