@@ -76,6 +76,7 @@ class App:
         # bound once: no allocation per loop pass
         self._sample_cb = self.output.sample
         self._gap_cb = self.output.gap
+        flow.service = self._service
         flow.load()
         sup.start(self.cfg)
         self.output.adc = sup.adc
@@ -151,6 +152,16 @@ class App:
         if flow.session is not None:
             flow.tick()
         self.led.update()
+
+    def _service(self):
+        """The DRDY ring drained and the watchdog fed from inside a long step (the finish's tau
+        search, calibration_flow.py): its blocks would overflow the ring, its seconds the watchdog."""
+        sup = self.supervisor
+        if not sup.fault or sup.verifying:
+            n = self.acq.poll(self._sample_cb, self._drain, self._gap_cb)
+            if n:
+                self.board.busy(_SAMPLE, n)
+        self.board.watchdog_feed()
 
     def wait(self):
         """Idle for _HOUSE_MS: asleep where the DRDY handler is an interrupt, else counted in conversions.

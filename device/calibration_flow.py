@@ -74,6 +74,7 @@ class CalibrationFlow:
         self._diff = board.ticks_diff
         self._resident = None     # sys.modules before the session in progress imported its own
         self._sums_path = sums_path()
+        self.service = None       # app.py: the ring drained, the watchdog fed (between the finish's solves)
 
     def load(self):
         body, src, problem = store.load(self.board.root, "cal", Calibration.from_dict)
@@ -160,6 +161,8 @@ class CalibrationFlow:
 
     def finish(self):
         s = self._end()
+        if self.service is not None:
+            s.between = self._between
         gc.collect()
         try:
             cal, result, held = self._conclude(s)
@@ -170,11 +173,19 @@ class CalibrationFlow:
             self._unload()
         return self._settle(cal, result, held)
 
+    def _between(self):
+        """After each of the tau estimate's solves at the finish: its time charged (the simulated
+        board), then the main loop's service. The session no longer takes samples (_end): what the
+        ring holds goes to the survey output, as after the finish."""
+        self.board.busy(SOLVE)
+        self.service()
+
     def _conclude(self, s):
         """The session's result: (calibration or None, the cal event's fields, held: see _worse_than_current)."""
         cal, reason, msg = s.finish()
         b = self.board
-        b.busy(SOLVE, 1 + s.search_solves)   # and the tau estimate's (lagfit.py)
+        # and the tau estimate's (lagfit.py), unless charged one by one in _between
+        b.busy(SOLVE, 1 if s.between is not None else 1 + s.search_solves)
         result = {"state": s.state, "n": s.fit.n, "coverage": json_number(s.coverage())}
         held = None
         if cal is None:

@@ -74,6 +74,7 @@ class Session:
             self.steps_us, self.tau_sums = lagfit.setup(cfg, self.taus_us, self.kind)
         self._final = None
         self.search_solves = 0      # the tau estimate's solves at the finish
+        self.between = None         # called after each of them (calibration_flow.py: the main loop's service)
         # bound once: the per-sample call allocates nothing
         self.sample = g.sample
         self.break_chain = g.break_chain
