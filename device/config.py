@@ -65,6 +65,10 @@ SCHEMA = {
     # (shared/delag.py: before the gates, the fit and the survey), and the gate then follows
     # what is left: the configured tau's relative uncertainty response_tol (gates.py gate_dps)
     "delag": (True, "bool", 0, 0),
+    # de-lag by the whole response, the ADC's sinc3 and the boxcar included, and so every sensor,
+    # a fast one too (shared/delag.py response_tau_s): off, as after a gap the de-lag waits for
+    # four samples, which a polled DRDY (CircuitPython) with its frequent gaps cannot spare
+    "delag_adc": (False, "bool", 0, 0),
     "response_tol": (0.05, "float", 0.0, 1.0),
     # de-lagged: estimate tau at the finish (shared/tausums.py; four more sums per accepted
     # sample, a few more solves at the end) and use it, with its own uncertainty

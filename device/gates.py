@@ -46,7 +46,7 @@ import math
 from array import array
 
 from residuals import ResidualBatches
-from shared.delag import configured_tau_s, lag_dps
+from shared.delag import configured_tau_s, lag_dps, sensor_tau_s
 
 HIST = 256           # recent accepted samples kept for removal (5 ints each)
 _RUN = 3             # consecutive outliers that make a disturbance
@@ -71,7 +71,7 @@ def gate_dps(cfg):
     if tau is not None:
         tau *= cfg["response_tol"]
     else:
-        tau = 1.0 / (2.0 * math.pi * cfg["sensor_bandwidth_hz"])
+        tau = sensor_tau_s(cfg)
     return min(cfg["gate_rate_dps"], lag_dps(cfg, tau))
 
 

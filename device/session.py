@@ -27,7 +27,7 @@ from gates import HIST, Gates, disturbance_limit
 from shared import codes
 from shared.codes import AUTO, CANCELLED, COLLECTING, DONE, FAILED, FULL, QUICK, RESHAPED
 from shared.coverage import Coverage
-from shared.delag import configured_tau_s, tau_us
+from shared.delag import configured_tau_s, sensor_is_slow, tau_us
 from shared.fit import EllipsoidFit, FitError
 from shared.response import check_response
 
@@ -66,7 +66,7 @@ class Session:
         # the tau estimate (lagfit.py): the Delag's tau steps and the other nodes' sums (None:
         # not estimated), and the fit (and its unit) the finish solves
         self.steps_us = self.tau_sums = self._lagfit = None
-        if self.taus_us is not None and cfg["tau_estimate"] and self.kind != QUICK:
+        if self.taus_us is not None and cfg["tau_estimate"] and self.kind != QUICK and sensor_is_slow(cfg):
             # imported only where it runs: lagfit.py and shared/tausums.py are ~4 KB of a board's
             # heap as .mpy, which a quick re-calibration on a Pico's 190 KB has not to spare
             import lagfit
@@ -299,7 +299,9 @@ class Session:
         d = cal.diagnostics
         rho = d.get("residual_rho")
         turn = d.get("residual_turn_corr")
-        if self.response is None or rho is None or rho <= 0.5:
+        # a fast sensor's response is the ADC's and the boxcar's, known (shared/delag.py): its
+        # residuals that follow each other say nothing of a lag
+        if self.response is None or rho is None or rho <= 0.5 or not sensor_is_slow(self.cfg):
             return ""
         est = self.response.get("source") == "estimated"   # lagfit.py: a wrong bandwidth is ruled out
         why = "; de-lagged with tau %.1f ms (%s), the residuals still follow each other (rho %.2f" % (

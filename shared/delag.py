@@ -1,4 +1,4 @@
-"""Undo a slow sensor's lag on the decimated integer samples: exact, the same on every interpreter.
+"""Undo the sensor's and the ADC's lag on the decimated integer samples: exact, the same on every interpreter.
 
     from shared.delag import Delag, tau_us
     dl = Delag(window=2)
@@ -8,10 +8,17 @@
     dl.reset()                                      # after a gap: neighbours are not neighbours
 
 Why: a first-order sensor of time constant tau = 1 / (2 pi f_c) reading the field r obeys
-tau y' + y = r, so r = y + tau y' exactly. The ADS1292's sinc filter and the firmware's
-boxcar are linear and time invariant too, so they commute with that: the boxcar sums y_n,
-de-lagged, are the field through the ADC's filter and the boxcar only -- sub-millisecond
-delays common to the three axes, which leave |B| alone.
+tau y' + y = r, so r = y + tau y' exactly. The ADS1292's sinc3 filter and the firmware's
+boxcar are linear and time invariant too, and not mere delays: any filter whose impulse
+response has the variance s^2 shrinks a field turning at w by B (w s)^2 / 2 (its transfer
+function is e^(-i w mean) (1 - w^2 s^2 / 2 + ...)), as a first-order lag of tau = s does, and
+de-lagging with tau lengthens it by B (w tau)^2 / 2. With `delag_adc` the firmware de-lags
+with the whole response's tau = sqrt(tau_s^2 + s_sinc^2 + s_box^2) (response_tau_s): 0.725 ms
+for a 1 kHz sensor at the defaults, whose 0.16 ms alone misses 0.27 nT of |B| at 1 rev/s, an
+error that follows the hand's pace (the Mag649's full-sphere error 0.044 nT at 1 rev/s,
+0.012 nT de-lagged so, python -m desktop.bench.delag); `fluxcal fit --lag auto` finds
+0.524 ms on the conversions themselves (the sinc3 and the sensor: sqrt(0.5^2 + 0.16^2)).
+Without it (the default) only a slow sensor is de-lagged, by its own tau.
 
 Where the derivative is taken: at the decimated rate f_s = rate / decim, by the five-point
 central difference (Richardson's combination of the spans T and 2 T, T = 1 / f_s),
@@ -63,14 +70,39 @@ def lag_dps(cfg, tau):
     return math.sqrt(2.0 * cfg["lag_tol_nt"] / field) / tau * 180.0 / math.pi if tau > 0.0 else 1e9
 
 
+def sensor_tau_s(cfg):
+    """The sensor's own first-order time constant (s): 1 / (2 pi sensor_bandwidth_hz)."""
+    return 1.0 / (2.0 * math.pi * cfg["sensor_bandwidth_hz"])
+
+
+def response_tau_s(cfg):
+    """The time constant (s) that undoes the whole response to second order in the turn rate:
+    the sensor's, the ADS1292's sinc3 (three boxcars of one conversion, 1 / rate: variance
+    1 / (4 rate^2); datasheet section 8.3.1.4, the digital decimation filter) and the firmware's
+    boxcar of `window` conversions 1 / rate apart (variance (window^2 - 1) / (12 rate^2)).
+    Variances add under convolution, and a first-order lag's is tau_s^2."""
+    r = float(cfg["rate"])
+    w = cfg["window"]
+    return math.sqrt(sensor_tau_s(cfg) ** 2 + 0.25 / (r * r) + (w * w - 1) / (12.0 * r * r))
+
+
 def configured_tau_s(cfg):
-    """The firmware config's sensor time constant (s, from sensor_bandwidth_hz) when the samples
-    are de-lagged with it: `delag` on, and its lag would bring the rate gate under
-    gate_rate_dps (device/gates.py); else None: a sensor fast enough for the gate is left as it is."""
-    tau = 1.0 / (2.0 * math.pi * cfg["sensor_bandwidth_hz"])
-    if cfg["delag"] and lag_dps(cfg, tau) < cfg["gate_rate_dps"]:
-        return tau
-    return None
+    """The tau (s) the firmware config de-lags the samples with, or None: with `delag_adc` the
+    whole response's (response_tau_s) whenever `delag` is on; else the sensor's own where its
+    lag would bring the rate gate under gate_rate_dps (device/gates.py): a sensor fast enough
+    for the gate is left as it is."""
+    if not cfg["delag"]:
+        return None
+    if cfg["delag_adc"]:
+        return response_tau_s(cfg)
+    return sensor_tau_s(cfg) if sensor_is_slow(cfg) else None
+
+
+def sensor_is_slow(cfg):
+    """True when the sensor's own lag would bring the rate gate under gate_rate_dps
+    (device/gates.py): then its tau is worth estimating (device/lagfit.py); a fast sensor's
+    response is the ADC's, known from the datasheet."""
+    return lag_dps(cfg, sensor_tau_s(cfg)) < cfg["gate_rate_dps"]
 
 
 def tau_us(tau_s):

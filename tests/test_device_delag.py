@@ -9,8 +9,9 @@ the spin's |B| (0.1 s blocks, the paper's averaging) within the targets of 1 nT 
 estimates tau at the finish (device/lagfit.py), so a bandwidth configured 20 % wrong calibrates
 as well, the estimated tau in the record. The same calibration on every interpreter a board
 has: the de-lag, the gates and the sums at any tau are integers, so the same samples go into
-the same exact sums. The Mag649 (1 kHz) is not de-lagged: its
-lag allows the whole 360 deg/s gate (tests/test_device_calibration.py holds its figures).
+the same exact sums. A fast sensor (the Mag649, 1 kHz) is left as it is, unless `delag_adc`:
+then it is de-lagged by the response of the ADC's sinc3 and the firmware's boxcar, which are
+no mere delays (shared/delag.py).
 """
 
 import numpy as np
@@ -25,9 +26,9 @@ from tests.interpreters import INTERPRETERS, float_eps, need
 MAG648_TAU_US = 31831     # 1 / (2 pi 5 Hz), whole microseconds
 
 
-def _run(tmp_path, kind, rev_s, rotate_s, **cfg):
+def _run(tmp_path, kind, rev_s, rotate_s, sensor="mag648", **cfg):
     r = calibrate_and_verify(kind=kind, root=str(tmp_path), rotate_s=rotate_s, spin_s=10.0, rot_rate=rev_s,
-                             spin_rev_s=rev_s, sensor={"sensor": "mag648"}, seed=5, **cfg)
+                             spin_rev_s=rev_s, sensor={"sensor": sensor}, seed=5, **cfg)
     body, _, problem = import_device("store").load(flash_dir(str(tmp_path)), "cal", Calibration.from_dict)
     assert body is not None, problem
     r["record"] = Calibration.from_dict(body)
@@ -74,6 +75,23 @@ def _estimated_within_targets(r, target_nt):
     # counted it as independent (shared/honest.py; 2.3-2.9 times the real error before)
     real = _sphere_error(r)
     assert d["tau_int"] < 1.0 and real <= d["predicted_error"] <= 2.0 * real, (real, d)
+
+
+@pytest.mark.parametrize("sensor", ["mag649", "paper"])
+def test_with_delag_adc_a_fast_sensor_is_de_lagged_by_the_adc_filter_and_the_boxcar(tmp_path, sensor):
+    # the sinc3 (variance 1 / (4 rate^2)), the 2-conversion boxcar ((2^2 - 1) / (12 rate^2)) and
+    # the sensor's 0.159 ms: sqrt(0.25 + 0.25 + 0.0253) ms = 0.725 ms at 1000 SPS. Undone, the
+    # |B| they shrink by B (w tau)^2 / 2 = 0.52 nT at 1 rev/s no longer follows the hand's pace:
+    # the full-sphere error at 1 rev/s was 0.044 nT (Mag649) and 0.064 nT (paper) left as it
+    # was, predicted as 0.034 and 0.028 nT (0.44 times it); now ~0.012 nT and predicted to 2
+    r = _run(tmp_path, "cpython", 1.0, 120.0, sensor=sensor, auto_finish=False, delag_adc=True)
+    assert r["cal"]["state"] == "done", r["cal"]
+    resp = r["record"].response
+    assert resp["source"] == "given" and [round(t * 1e6) for t in resp["tau_s"]] == [725] * 3, resp
+    assert r["status"]["delag_us"] == [725] * 3
+    real = _sphere_error(r)
+    d = r["record"].diagnostics
+    assert real < 0.025 and 0.5 * real <= d["predicted_error"] <= 2.0 * real, (real, d)
 
 
 @pytest.mark.parametrize("bandwidth_hz,rev_s,target_nt", [(4.0, 0.5, 1.0), (6.0, 1.0, 2.0)])

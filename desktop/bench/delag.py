@@ -42,6 +42,9 @@ CASES = (
     ("Mag648 with two poles (same -3 dB)", {"sensor": "mag648", "poles": 2}, {}, (0.5, 1.0)),
     ("Mag649 (not de-lagged: its lag allows the whole gate)", {"sensor": "mag649"}, {}, (0.5, 1.0)),
     ("paper preset", {"sensor": "paper"}, {}, (0.5, 1.0)),
+    ("Mag649, delag_adc (de-lagged by the whole response, the ADC's sinc3 and the boxcar: 0.725 ms)",
+     {"sensor": "mag649"}, {"delag_adc": True}, (0.5, 1.0)),
+    ("paper preset, delag_adc", {"sensor": "paper"}, {"delag_adc": True}, (0.5, 1.0)),
 )
 PAPER_MAG648 = "29-38 nT PTP (Table 1: 38 nT at 250 Hz, 29 nT at 1000 Hz)"
 
