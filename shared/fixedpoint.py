@@ -20,6 +20,12 @@ Everything is Python's integers; products of 24-bit codes and 40-bit coefficient
 integers on a 32-bit port (a heap allocation each): 9 products and about 25 other operations
 a sample, cheaper on a float32 board than the boxed floats they replace.
 
+Where the board has the native module fitsums (device/native/fitsums.c, MicroPython only),
+magnitude runs in its machine words for corrections whose numbers fit them (decided once, in
+__init__; `path` says "native" or "python"), the same integer; the pure-Python method below
+stays the reference, CircuitPython's and CPython's path, and the fall-back for a sum or an
+h_c past the words.
+
 Temperature drift (Calibration.at_temperature's model) is applied to the exact values: the
 gain factors 1 / (1 + g tau) as exact fractions of the interpreter's product g tau, the
 offsets b + o tau likewise; only g tau and o tau themselves carry the float's rounding
@@ -27,10 +33,20 @@ offsets b + o tau likewise; only g tau and o tau themselves carry the float's ro
 """
 
 import math
+from array import array
+
+try:
+    # |h_c| in C where deploy installed the board's fitsums.mpy (MicroPython; not CPython or
+    # CircuitPython, which load no MicroPython .mpy): ImportError also for a fitsums without it
+    from fitsums import magnitude as _native_magnitude
+except (ImportError, ValueError):    # ValueError: a .mpy of another architecture or version
+    _native_magnitude = None
 
 FRACTION_BITS = 8        # |h_c| and its axes carry 8 bits below the milli-nT
 _COEF_BITS = 36          # the coefficients' bits below the milli-nT (precision above)
 _TWO53 = 9007199254740992.0   # 2**53: a float's significand times it is an integer on every width
+# what fitsums.magnitude's words take (fitsums.c): |w| < 2**31, |c|, |k| < 2**63 (0 < d < 32)
+_NATIVE_LIMITS = (1 << 31,) * 3 + (1 << 63,) * 12
 
 
 def float_pair(x):
@@ -60,6 +76,18 @@ def fraction(p, num=1, den=1, shift=0):
     if k >= 0:
         return (p[0] * num) << k, den
     return p[0] * num, den << -k
+
+
+def native_numbers(flat):
+    """ExactCorrection._flat as fitsums.magnitude takes it: each number as four 16-bit limbs of
+    its 64-bit two's complement (small ints on every port), least significant first; None
+    without the native module or where a number does not fit its words."""
+    if _native_magnitude is None or not 0 < flat[15] < 32:
+        return None
+    for v, m in zip(flat, _NATIVE_LIMITS):
+        if not -m < v < m:
+            return None
+    return array("H", [(v >> s) & 0xFFFF for v in flat for s in (0, 16, 32, 48)])
 
 
 class ExactCorrection:
@@ -101,6 +129,11 @@ class ExactCorrection:
             self._k.append(_round_div(kn, kd))
         # the per-sample path's numbers as one tuple: unpacked into locals in one step
         self._flat = tuple(self._w + self._c[0] + self._c[1] + self._c[2] + self._k + [_COEF_BITS - FRACTION_BITS])
+        # the native |h_c| where every number fits its words, decided here once
+        self._native = native_numbers(self._flat)
+        if self._native is None and _native_magnitude is not None:
+            self.magnitude = self._magnitude        # the pure-Python method, without the native try
+        self.path = "python" if self._native is None else "native"
 
     def _axes(self, sx, sy, sz):
         """h_c in 1/2**FRACTION_BITS milli-nT, floored (ints)."""
@@ -111,9 +144,9 @@ class ExactCorrection:
         return ((c00 * ex + c01 * ey + c02 * ez - k0) >> d, (c10 * ex + c11 * ey + c12 * ez - k1) >> d,
                 (c20 * ex + c21 * ey + c22 * ez - k2) >> d)
 
-    def magnitude(self, sx, sy, sz):
-        """|h_c| in 1/2**FRACTION_BITS milli-nT (an int, floored): isqrt's steps inline, as
-        each call costs on a board."""
+    def _magnitude(self, sx, sy, sz):
+        """|h_c| in pure Python (the reference): isqrt's steps inline, as each call costs on a
+        board."""
         w0, w1, w2, c00, c01, c02, c10, c11, c12, c20, c21, c22, k0, k1, k2, d = self._flat
         ex = sx - w0
         ey = sy - w1
@@ -129,6 +162,15 @@ class ExactCorrection:
         while y * y > q:
             y -= 1
         return y
+
+    if _native_magnitude is None:
+        magnitude = _magnitude
+    else:
+        def magnitude(self, sx, sy, sz):
+            """|h_c| in 1/2**FRACTION_BITS milli-nT (an int, floored): in C (fitsums.magnitude) where
+            `path` is "native" and the sums fit its words, else _magnitude."""
+            f = _native_magnitude(self._native, sx, sy, sz)
+            return self._magnitude(sx, sy, sz) if f is None else f
 
     def correct(self, sx, sy, sz):
         """h_c in milli-nT (ints, rounded to the nearest)."""

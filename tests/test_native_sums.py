@@ -28,10 +28,15 @@ SCRIPT = os.path.join(REPO, "tests", "micropython", "native_sums.py")
 LOADS_NATMODS = {"micropython", "micropython-float32", "micropython-reprc", "rp2-pico"}
 
 
-def _run(argv):
+def output(argv):
+    """The command's stdout (it must succeed)."""
     proc = subprocess.run(argv, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
-    return json.loads(proc.stdout.splitlines()[-1])
+    return proc.stdout
+
+
+def _run(argv):
+    return json.loads(output(argv).splitlines()[-1])
 
 
 @pytest.fixture(scope="module")
@@ -67,10 +72,10 @@ def test_native_sums_equal_the_pure_python_ones(name, reference, micropython):
     assert got["refused"] == reference["refused"]      # a float: the same TypeError
 
 
-def test_native_sums_on_the_emulated_pico(reference, tmp_path):
-    """The armv6m build on the rp2 firmware (Cortex-M0+, 31-bit small ints): shared/ and the
-    script as .mpy from the Pico's own mpy-cross, copied into its flash by mpremote (not
-    mounted: mount's 1 s poll times out when this machine is loaded)."""
+def on_the_emulated_pico(tmp_path, script):
+    """The armv6m build on the rp2 firmware (Cortex-M0+, 31-bit small ints): shared/ and `script`
+    as .mpy from the Pico's own mpy-cross, copied into its flash by mpremote (not mounted: mount's
+    1 s poll times out when this machine is loaded): what script.main('/disk', '/disk') prints."""
     need("rp2-pico")
     from desktop.devicesim.pico_board import PicoBoard
     from desktop.firmware.interpreters import pico_parts
@@ -78,25 +83,24 @@ def test_native_sums_on_the_emulated_pico(reference, tmp_path):
 
     natmod = natmod_path("armv6m") or _missing("no fitsums.mpy for armv6m: make interpreters")
     cross = pico_parts()["mpy_cross"]
+    name = os.path.basename(script)[:-3]
     (tmp_path / "disk" / "shared").mkdir(parents=True)
-    for name in os.listdir(os.path.join(REPO, "shared")):
-        if name.endswith(".py"):
-            subprocess.run([cross, "-o", str(tmp_path / "disk" / "shared" / (name[:-3] + ".mpy")),
-                            os.path.join(REPO, "shared", name)], check=True)
-    subprocess.run([cross, "-o", str(tmp_path / "disk" / "native_sums.mpy"), SCRIPT], check=True)
+    for source in os.listdir(os.path.join(REPO, "shared")):
+        if source.endswith(".py"):
+            subprocess.run([cross, "-o", str(tmp_path / "disk" / "shared" / (source[:-3] + ".mpy")),
+                            os.path.join(REPO, "shared", source)], check=True)
+    subprocess.run([cross, "-o", str(tmp_path / "disk" / (name + ".mpy")), script], check=True)
     shutil.copyfile(natmod, tmp_path / "disk" / "fitsums.mpy")
     with PicoBoard(str(tmp_path / "pico.flash"), ) as board:
-        run = "import sys; sys.path.insert(0, '/disk'); import native_sums; native_sums.main('/disk', '/disk')"
-        got = _run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", str(tmp_path / "disk"), ":",
-                    "+", "exec", run])
-    assert got["path"] == "native"
-    assert got["sums"] == reference["sums"]
-    assert got["refused"] == reference["refused"]
+        run = "import sys; sys.path.insert(0, '/disk'); import %s; %s.main('/disk', '/disk')" % (name, name)
+        return output([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", str(tmp_path / "disk"),
+                       ":", "+", "exec", run])
 
 
-def test_native_sums_on_the_emulated_cortex_m3(reference, tmp_path, mpy_cross):
+def on_the_emulated_cortex_m3(tmp_path, script, mpy_cross):
     """The armv7m build on bare-metal MicroPython in qemu (Cortex-M3, 31-bit small ints), from the
-    board's ROM filesystem, as tests/test_shared_on_cortexm.py runs shared/ there."""
+    board's ROM filesystem, as tests/test_shared_on_cortexm.py runs shared/ there: what script.main
+    prints."""
     need("qemu-m3")
     if shutil.which("qemu-system-arm") is None:
         _missing("qemu-system-arm is missing")
@@ -104,16 +108,28 @@ def test_native_sums_on_the_emulated_cortex_m3(reference, tmp_path, mpy_cross):
     from desktop.firmware.natmod import natmod_path
 
     natmod = natmod_path("armv7m") or _missing("no fitsums.mpy for armv7m: make interpreters")
+    name = os.path.basename(script)[:-3]
     rom = tmp_path / "rom"
     (rom / "lib" / "shared").mkdir(parents=True)
-    for name in os.listdir(os.path.join(REPO, "shared")):
-        if name.endswith(".py"):
-            subprocess.run([mpy_cross, "-o", str(rom / "lib" / "shared" / (name[:-3] + ".mpy")),
-                            os.path.join(REPO, "shared", name)], check=True)
-    subprocess.run([mpy_cross, "-o", str(rom / "native_sums.mpy"), SCRIPT], check=True)
+    for source in os.listdir(os.path.join(REPO, "shared")):
+        if source.endswith(".py"):
+            subprocess.run([mpy_cross, "-o", str(rom / "lib" / "shared" / (source[:-3] + ".mpy")),
+                            os.path.join(REPO, "shared", source)], check=True)
+    subprocess.run([mpy_cross, "-o", str(rom / (name + ".mpy")), script], check=True)
     shutil.copyfile(natmod, rom / "fitsums.mpy")
     with QemuBoard(rom=str(rom)) as board:
-        got = json.loads(board.exec("import native_sums\nnative_sums.main('/rom/lib', '/rom')").splitlines()[-1])
+        return board.exec("import %s\n%s.main('/rom/lib', '/rom')" % (name, name))
+
+
+def test_native_sums_on_the_emulated_pico(reference, tmp_path):
+    got = json.loads(on_the_emulated_pico(tmp_path, SCRIPT).splitlines()[-1])
+    assert got["path"] == "native"
+    assert got["sums"] == reference["sums"]
+    assert got["refused"] == reference["refused"]
+
+
+def test_native_sums_on_the_emulated_cortex_m3(reference, tmp_path, mpy_cross):
+    got = json.loads(on_the_emulated_cortex_m3(tmp_path, SCRIPT, mpy_cross).splitlines()[-1])
     assert got["path"] == "native"
     assert got["sums"] == reference["sums"]
     assert got["refused"] == reference["refused"]

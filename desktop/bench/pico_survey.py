@@ -9,11 +9,14 @@ spin) on the rp2 port's firmware in the RP2040 emulator, the modules as .mpy fro
 own mpy-cross: emulated time per decimated sample through Output.sample (block outputs
 included), per |h_c| alone, per block output alone; x 125 gives cycles (125 MHz). The
 stand-ins (serial line, screen, die) cost a little of their own; the same in both trees.
+This checkout's fitsums.mpy for armv6m goes on the disk as deploy installs it (where built): a
+tree whose shared/fixedpoint.py uses its magnitude runs |h_c| in C (the table says which).
 """
 
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -23,6 +26,7 @@ import numpy as np
 from desktop.devicesim.pico_board import PicoBoard
 from desktop.firmware.files import REPO
 from desktop.firmware.interpreters import pico_parts
+from desktop.firmware.natmod import natmod_path
 from desktop.methods import fit_array
 from desktop.sim.instrument import realistic_instrument
 
@@ -44,6 +48,9 @@ def _disk(folder, source, job):
         subprocess.run([cross, "-o", os.path.join(folder, rel[:-3] + ".mpy"), src], check=True)
     with open(os.path.join(folder, "job.json"), "w") as fh:
         json.dump(job, fh)
+    native = natmod_path("armv6m")
+    if native:
+        shutil.copyfile(native, os.path.join(folder, "fitsums.mpy"))
 
 
 def main(argv=None):
@@ -67,7 +74,8 @@ def main(argv=None):
         print("the Pico run failed: %s" % (r.stdout + r.stderr).strip()[-800:], file=sys.stderr)
         return 1
     got = json.loads(r.stdout.splitlines()[-1])
-    print("| survey output on the emulated Pico (%s, %s) | emulated us | cycles |" % (got["path"], args.source))
+    print("| survey output on the emulated Pico (%s, \\|h_c\\| in %s; %s) | emulated us | cycles |"
+          % (got["path"], got.get("magnitude_path", "python"), args.source))
     print("|---|---|---|")
     for key, label in (("per_sample", "per decimated sample (Output.sample, block outputs included)"),
                        ("magnitude", "|h_c| alone"), ("block", "a block's output alone (correct, format the event)")):

@@ -52,7 +52,8 @@ def main():
         o._output(blk)
     block = time.ticks_diff(time.ticks_us(), t0) / 100
     print(json.dumps({"per_sample": per_sample, "magnitude": magnitude, "block": block,
-                      "path": "integers" if hasattr(o, "exact_w") else "floats"}))
+                      "path": "integers" if hasattr(o, "exact_w") else "floats",
+                      "magnitude_path": getattr(corr, "path", "python")}))
 
 
 main()
