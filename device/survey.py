@@ -379,7 +379,9 @@ class Output:
         out = {"stream": self.stream, "temp": json_number(self.temp_c, 2), "temp_warn": self.cal_temp_warn,
                "spikes": self.screen.spikes, "clipped": self.screen.clipped,
                # the taus (us per axis) the samples are de-lagged with, None: not de-lagged
-               "delag_us": self.delag.taus_us if self._delag_on else None}
+               "delag_us": self.delag.taus_us if self._delag_on else None,
+               # |h_c| of the calibration in force: "native" (fitsums.mpy) or "python"; None: none
+               "magnitude": None if self.exact_w is None else self.exact_w.path}
         if self.log is not None:
             out["log"] = {"lines": self.log.lines, "error": self.log.error}
         return out
