@@ -19,13 +19,17 @@ LOG_FILE_BYTES = 8192      # the default 64 KB would take 8 minutes to come roun
 @pytest.fixture(scope="module")
 def figures():
     need("micropython")
-    return longrun.run(180.0, every_s=2.0, settings={"log_file_bytes": LOG_FILE_BYTES})
+    # a status every 0.5 s: the heap's ceiling is read from the best sample of a 40 s window, which
+    # lies up to one interval after a collection, 0.5 s x ~11 KB/s = 6 KB below it, inside the 16 KB
+    # bound. At 2 s it was up to 22 KB: where the collections fell against the replies (moved by
+    # as little as the checkout's path or one more status key) decided it, 250,336 -> 229,248 B
+    return longrun.run(180.0, every_s=0.5, settings={"log_file_bytes": LOG_FILE_BYTES})
 
 
 def test_short_long_run_holds_every_invariant(figures):
     f = figures
     assert problems(f) == [], table(f)
-    assert f["simulated_s"] > 179.0 and f["statuses"] >= 85
+    assert f["simulated_s"] > 179.0 and f["statuses"] >= 340
     # 180 s at the default 1000 SPS: every conversion counted once, none missed or merged
     assert f["frames"] >= 180 * longrun.DEFAULTS["rate"]
     assert f["missed"] == f["overflow"] == f["merged_edges"] == f["frames_vs_edges"] == 0
