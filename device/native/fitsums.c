@@ -103,13 +103,23 @@ static inline void accumulate(uint32_t *acc, uint32_t m0, uint32_t m1, uint32_t 
     #endif
 }
 
-// a small int with |v| < LIMIT: its magnitude and sign; false for anything else
-static bool small_code(mp_obj_t o, uint64_t *mag, bool *neg) {
+// a small int with |v| < limit, in *v; false for anything else (a code, a magnitude's sum)
+static bool small_within(mp_obj_t o, int64_t limit, int64_t *v) {
     if (!mp_obj_is_small_int(o)) {
         return false;
     }
-    mp_int_t n = MP_OBJ_SMALL_INT_VALUE(o);
-    if (n <= -LIMIT || n >= LIMIT) {
+    int64_t n = MP_OBJ_SMALL_INT_VALUE(o);
+    if (n <= -limit || n >= limit) {
+        return false;
+    }
+    *v = n;
+    return true;
+}
+
+// a small int with |v| < LIMIT: its magnitude and sign; false for anything else
+static bool small_code(mp_obj_t o, uint64_t *mag, bool *neg) {
+    int64_t n;
+    if (!small_within(o, LIMIT, &n)) {
         return false;
     }
     *neg = n < 0;
@@ -197,15 +207,7 @@ static inline int64_t number(const uint16_t *p) {
 
 // a small int with |s| < SUM_LIMIT, false for anything else
 static bool small_sum(mp_obj_t o, int64_t *v) {
-    if (!mp_obj_is_small_int(o)) {
-        return false;
-    }
-    int64_t n = MP_OBJ_SMALL_INT_VALUE(o);
-    if (n <= -SUM_LIMIT || n >= SUM_LIMIT) {
-        return false;
-    }
-    *v = n;
-    return true;
+    return small_within(o, SUM_LIMIT, v);
 }
 
 // q += v 2^(32 k) in an unsigned four-word sum (k <= 2; the sum stays under 2^126)
