@@ -48,6 +48,13 @@ except ImportError:  # CPython: const is the identity
     def const(x):
         return x
 
+try:
+    # The handler in C (device/native/drdy.c), where deploy installed the board's build
+    # (MicroPython; ValueError: a .mpy of another arch or version)
+    from drdy import Handler as _NativeHandler
+except (ImportError, ValueError):
+    _NativeHandler = None
+
 FRAME_BYTES = 9              # 24 status bits + 2 x 24-bit channels [DS §8.5.1.5]
 _STATUS_MASK = const(0xF0)
 _STATUS_SYNC = const(0xC0)   # frame header nibble 1100 [DS §8.5.1.5]
@@ -91,9 +98,18 @@ class Acquisition:
         self.samples = 0      # decimated samples delivered by poll
         self.gaps = 0         # discontinuities seen in the block numbers
         self._last = -1
+        self._shape = array("i", bytes(4 * 2))   # decim, decim - window: what the native handler reads
         self.set_decimation(decim, window)
-        # Bind once: creating a bound method inside an ISR allocates.
-        self.isr = self._isr
+        # The handler attach_drdy gets: the native one where the module loads and the HAL hands
+        # over its chip selects and SPI read (hal.Board.drdy_bus), else _isr, bound once
+        # (creating a bound method inside an ISR allocates).
+        bus = getattr(board, "drdy_bus", None)
+        if _NativeHandler is not None and bus is not None:
+            self.isr = _NativeHandler(self.state, self.acc, self.ring, self._shape, self._f0, self._f1, bus)
+            self.handler = "native"
+        else:
+            self.isr = self._isr
+            self.handler = "python"
 
     def set_decimation(self, decim, window):
         """Boxcar of the last `window` frames of every `decim` (1 <= window <= decim, window <= 64)."""
@@ -102,6 +118,8 @@ class Acquisition:
         self.decim = decim
         self.window = window
         self._first = decim - window
+        self._shape[0] = decim
+        self._shape[1] = self._first
         self.reset()
 
     def reset(self):
@@ -125,7 +143,7 @@ class Acquisition:
         """Its part of `status`: the counters of the DRDY path and the ring."""
         st = self.state
         return {"frames": st[FRAMES], "overflow": st[OVERFLOW], "missed": st[MISSED], "badsync": st[BADSYNC],
-                "discarded": st[DISCARDED], "gaps": self.gaps, "samples": self.samples}
+                "discarded": st[DISCARDED], "gaps": self.gaps, "samples": self.samples, "drdy": self.handler}
 
     # ****** main loop, polled DRDY only ******
     def account_gap(self, frames):
@@ -166,6 +184,7 @@ class Acquisition:
 
     # ****** interrupt path: no allocation below ******
     def _isr(self, _pin=None):
+        # the reference: device/native/drdy.c does the same, word for word (tests/test_native_drdy.py)
         st = self.state
         n = st[FRAMES]
         st[FRAMES] = n + 1 if n != _WRAP else 0

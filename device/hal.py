@@ -21,6 +21,12 @@ class Board:
     # itself services DRDY (a polling HAL, the simulator's link).
     sleeps_with_irq = False
 
+    # What a native DRDY handler (device/native/drdy.c) calls to read a frame as spi_readinto
+    # does: a list [cs0, cs1, readinto] of callables that allocate nothing (cs(0), cs(1): the
+    # chip select's level; readinto(buf, 0)), kept current when the bus changes. None: the HAL
+    # has none (CircuitPython polls DRDY; the simulator), and the pure-Python handler runs.
+    drdy_bus = None
+
     # ****** SPI bus: two chips, one chip select each, mode 1 (CPOL 0, CPHA 1) ******
     def set_spi_rate(self, hz):
         raise NotImplementedError("set_spi_rate")

@@ -83,8 +83,10 @@ class Board(hal.Board):
         self._spi_id = cfg["spi_id"]
         self._pins = (P(cfg["pin_sck"]), P(cfg["pin_mosi"]), P(cfg["pin_miso"]))
         self.spi = None
-        self.set_spi_rate(self.REG_BAUD)
         self._cs = (P(cfg["pin_cs0"], P.OUT, value=1), P(cfg["pin_cs1"], P.OUT, value=1))
+        # the native DRDY handler's reads (hal.Board.drdy_bus): the Pins, and readinto from set_spi_rate
+        self.drdy_bus = [self._cs[0], self._cs[1], None]
+        self.set_spi_rate(self.REG_BAUD)
         self._start = P(cfg["pin_start"], P.OUT, value=0)
         self._reset = P(cfg["pin_reset"], P.OUT, value=1)
         self._drdy = P(cfg["pin_drdy"], P.IN, P.PULL_UP)
@@ -112,6 +114,7 @@ class Board(hal.Board):
                                firstbit=machine.SPI.MSB, sck=sck, mosi=mosi, miso=miso)
         self._write = self.spi.write
         self._readinto = self.spi.readinto
+        self.drdy_bus[2] = self._readinto     # in place: the handler holds the list
 
     def _view(self, buf, n):
         if n == len(buf):

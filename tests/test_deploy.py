@@ -18,11 +18,11 @@ import pytest
 
 from desktop.devicesim.virtual_board import VirtualBoard
 from desktop.firmware import deploy
-from desktop.firmware.deploy import NATIVE, REMOVE, STAGE, DeployError, MicroPythonDeploy, board_files, deploy_drive
+from desktop.firmware.deploy import NATIVES, REMOVE, STAGE, DeployError, MicroPythonDeploy, board_files, deploy_drive
 from desktop.firmware.files import DEVICE, REPO, root_files
 from desktop.firmware.interpreters import mpy_cross_exe
 from desktop.firmware.mpy import cross_version, decode_mpy, mpy_mismatch
-from desktop.firmware.natmod import natmod_for, natmod_path
+from desktop.firmware.natmod import MODULES, natmod_for, natmod_path
 from tests.test_firmware_files import BUILTIN, OPTIONAL, _imports, _source
 
 MPREMOTE = [sys.executable, "-m", "mpremote"]
@@ -132,16 +132,18 @@ def test_deploy_then_redeploy_into_a_virtual_board(micropython, tmp_path):
     with VirtualBoard(flash, exe=micropython) as board:
         done = MicroPythonDeploy(board.port, compiled=True).run()
         assert "swapped in place, board reset" in done
-        # the fit's native sums go along where the interpreter's arch has a build (make interpreters)
+        # the native modules go along where the interpreter's arch has a build (make interpreters)
         target = decode_mpy(_board_mpy(board.port))
-        native = {NATIVE} if natmod_for(target) else set()
-        assert ("native sums" in done) == bool(native)
+        native = {path for module, path in zip(MODULES, NATIVES) if natmod_for(target, module)}
+        assert native in (set(), set(NATIVES))                  # both built, or neither
+        assert ("native sums" in done) == ("native DRDY handler" in done) == bool(native)
         mpy = {path for _, path in board_files("micropython", compiled=True)} | native
         assert set(flash_tree(flash)) == mpy
         header = (flash / "lib" / "app.mpy").read_bytes()[:2]
         assert header == b"M" + bytes([target.version])
         board_imports(board.port, ["hal_micropython", "app"])
         assert _sums_path(board.port) == ("native" if native else "python")
+        assert _drdy_path(board.port) == ("native" if native else "python")
 
         # the same board again, as source: every .mpy replaced by its .py (a stale .mpy would not
         # matter, a stale .py would shadow a new .mpy), nothing left of the staging
@@ -159,19 +161,21 @@ def test_deploy_then_redeploy_into_a_virtual_board(micropython, tmp_path):
 
 
 def test_a_deploy_without_the_native_module_removes_an_earlier_one(micropython, tmp_path, monkeypatch):
-    """A board whose arch has no build now (or a deploy with none) keeps no lib/fitsums.mpy of an
-    earlier deploy: one of another arch fails its import, one of the same would sum in place
-    of the pure Python deployed."""
+    """A board whose arch has no build now (or a deploy with none) keeps no lib/fitsums.mpy or
+    lib/drdy.mpy of an earlier deploy: one of another arch fails its import, one of the same
+    would run in place of the pure Python deployed."""
     flash = tmp_path / "flash"
     (flash / "lib").mkdir(parents=True)
-    stale = natmod_path("armv6m")   # what a Pico's deploy left, where built; any bytes do here
-    (flash / NATIVE).write_bytes(open(stale, "rb").read() if stale else b"M\x06stale")
-    monkeypatch.setattr(deploy, "natmod_for", lambda mpy: None)
+    for module, path in zip(MODULES, NATIVES):
+        stale = natmod_path("armv6m", module)   # what a Pico's deploy left, where built; any bytes do here
+        (flash / path).write_bytes(open(stale, "rb").read() if stale else b"M\x06stale")
+    monkeypatch.setattr(deploy, "natmod_for", lambda mpy, module: None)
     with VirtualBoard(flash, exe=micropython) as board:
         done = MicroPythonDeploy(board.port, compiled=False).run()
-        assert "native sums" not in done
+        assert "native" not in done
         assert set(flash_tree(flash)) == {path for _, path in board_files("micropython", compiled=False)}
         assert _sums_path(board.port) == "python"
+        assert _drdy_path(board.port) == "python"
 
 
 def test_a_swap_removes_what_the_stage_lists_and_puts_it_back_when_undone(tmp_path):
@@ -179,14 +183,14 @@ def test_a_swap_removes_what_the_stage_lists_and_puts_it_back_when_undone(tmp_pa
     swap (lib/shared a file, so lib/shared/a.py cannot go there) brings them back."""
     swap = deploy._swap_script()["swap"]
     (tmp_path / "lib").mkdir()
-    (tmp_path / NATIVE).write_bytes(b"old native")
+    (tmp_path / NATIVES[0]).write_bytes(b"old native")
     (tmp_path / "lib" / "app.py").write_text("old\n")
 
     def stage(*files):
         for rel in files:
             (tmp_path / STAGE / rel).parent.mkdir(parents=True, exist_ok=True)
             (tmp_path / STAGE / rel).write_text("new\n")
-        (tmp_path / STAGE / REMOVE).write_text(NATIVE + "\n")
+        (tmp_path / STAGE / REMOVE).write_text(NATIVES[0] + "\n")
 
     (tmp_path / "lib" / "shared").write_text("not a folder\n")
     stage("lib/app.py", "lib/shared/a.py")
@@ -206,6 +210,14 @@ def _sums_path(port):
     """Which sums the deployed fit runs on the board (shared.fit.SUMS_PATH)."""
     r = subprocess.run(MPREMOTE + ["connect", port, "exec", "import sys; sys.path.append('/lib'); from shared import fit; "
                                    "print('sums', fit.SUMS_PATH)"], capture_output=True, text=True, timeout=60)
+    return r.stdout.split()[-1]
+
+
+def _drdy_path(port):
+    """Whether the deployed acquisition.py finds the native DRDY handler ("native") or not ("python")."""
+    r = subprocess.run(MPREMOTE + ["connect", port, "exec", "import sys; sys.path.append('/lib'); import acquisition; "
+                                   "print('drdy', 'python' if acquisition._NativeHandler is None else 'native')"],
+                       capture_output=True, text=True, timeout=60)
     return r.stdout.split()[-1]
 
 

@@ -30,9 +30,9 @@ BUILTIN = {
     "circuitpython": {"board", "busio", "digitalio", "keypad", "storage", "supervisor", "usb_cdc"},
     "sim": set(),
 }
-# imported where present, guarded by try/except: the native module deploy adds for a MicroPython
+# imported where present, guarded by try/except: the native modules deploy adds for a MicroPython
 # board whose architecture has a build (desktop/firmware/natmod.py), not a file of the list
-OPTIONAL = {"fitsums"}
+OPTIONAL = {"fitsums", "drdy"}
 
 
 def _imports(path):

@@ -54,12 +54,19 @@ def _missing(msg):
     pytest.skip(msg)
 
 
-def _need_natmod(exe, name):
-    """The fitsums.mpy for the interpreter's _mpy, or skip (fail under FLUXCAL_REQUIRE_INTERPRETERS)."""
+def _need_natmod(exe, name, module="fitsums"):
+    """The <module>.mpy for the interpreter's _mpy, or skip (fail under FLUXCAL_REQUIRE_INTERPRETERS)."""
     out = subprocess.run([exe, "-c", "import sys; print(sys.implementation._mpy)"], capture_output=True, text=True)
     target = decode_mpy(int(out.stdout.split()[-1]))
-    path = natmod_for(target)
-    return path or _missing("no fitsums.mpy for %s (%s): make interpreters" % (name, target))
+    path = natmod_for(target, module)
+    return path or _missing("no %s.mpy for %s (%s): make interpreters" % (module, name, target))
+
+
+def _sources(sources):
+    """The repository's .py files the script imports: every file of shared/ by default."""
+    if sources is not None:
+        return sources
+    return ["shared/" + f for f in sorted(os.listdir(os.path.join(REPO, "shared"))) if f.endswith(".py")]
 
 
 @pytest.mark.parametrize("name", INTERPRETERS)
@@ -72,51 +79,50 @@ def test_native_sums_equal_the_pure_python_ones(name, reference, micropython):
     assert got["refused"] == reference["refused"]      # a float: the same TypeError
 
 
-def on_the_emulated_pico(tmp_path, script):
-    """The armv6m build on the rp2 firmware (Cortex-M0+, 31-bit small ints): shared/ and `script`
-    as .mpy from the Pico's own mpy-cross, copied into its flash by mpremote (not mounted: mount's
-    1 s poll times out when this machine is loaded): what script.main('/disk', '/disk') prints."""
+def on_the_emulated_pico(tmp_path, script, module="fitsums", sources=None):
+    """The armv6m build of `module` on the rp2 firmware (Cortex-M0+, 31-bit small ints): `sources`
+    (repository paths; shared/ by default) and `script` as .mpy from the Pico's own mpy-cross,
+    copied into its flash by mpremote (not mounted: mount's 1 s poll times out when this machine
+    is loaded): what script.main('/disk', '/disk') prints."""
     need("rp2-pico")
     from desktop.devicesim.pico_board import PicoBoard
     from desktop.firmware.interpreters import pico_parts
     from desktop.firmware.natmod import natmod_path
 
-    natmod = natmod_path("armv6m") or _missing("no fitsums.mpy for armv6m: make interpreters")
+    natmod = natmod_path("armv6m", module) or _missing("no %s.mpy for armv6m: make interpreters" % module)
     cross = pico_parts()["mpy_cross"]
     name = os.path.basename(script)[:-3]
-    (tmp_path / "disk" / "shared").mkdir(parents=True)
-    for source in os.listdir(os.path.join(REPO, "shared")):
-        if source.endswith(".py"):
-            subprocess.run([cross, "-o", str(tmp_path / "disk" / "shared" / (source[:-3] + ".mpy")),
-                            os.path.join(REPO, "shared", source)], check=True)
+    for source in _sources(sources):
+        out = tmp_path / "disk" / (source[:-3] + ".mpy")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        subprocess.run([cross, "-o", str(out), os.path.join(REPO, source)], check=True)
     subprocess.run([cross, "-o", str(tmp_path / "disk" / (name + ".mpy")), script], check=True)
-    shutil.copyfile(natmod, tmp_path / "disk" / "fitsums.mpy")
+    shutil.copyfile(natmod, tmp_path / "disk" / (module + ".mpy"))
     with PicoBoard(str(tmp_path / "pico.flash"), ) as board:
         run = "import sys; sys.path.insert(0, '/disk'); import %s; %s.main('/disk', '/disk')" % (name, name)
         return output([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", str(tmp_path / "disk"),
                        ":", "+", "exec", run])
 
 
-def on_the_emulated_cortex_m3(tmp_path, script, mpy_cross):
-    """The armv7m build on bare-metal MicroPython in qemu (Cortex-M3, 31-bit small ints), from the
-    board's ROM filesystem, as tests/test_shared_on_cortexm.py runs shared/ there: what script.main
-    prints."""
+def on_the_emulated_cortex_m3(tmp_path, script, mpy_cross, module="fitsums", sources=None):
+    """The armv7m build of `module` on bare-metal MicroPython in qemu (Cortex-M3, 31-bit small ints),
+    from the board's ROM filesystem, as tests/test_shared_on_cortexm.py runs shared/ there (`sources`
+    in its lib/): what script.main('/rom/lib', '/rom') prints."""
     need("qemu-m3")
     if shutil.which("qemu-system-arm") is None:
         _missing("qemu-system-arm is missing")
     from desktop.devicesim.qemu_board import QemuBoard
     from desktop.firmware.natmod import natmod_path
 
-    natmod = natmod_path("armv7m") or _missing("no fitsums.mpy for armv7m: make interpreters")
+    natmod = natmod_path("armv7m", module) or _missing("no %s.mpy for armv7m: make interpreters" % module)
     name = os.path.basename(script)[:-3]
     rom = tmp_path / "rom"
-    (rom / "lib" / "shared").mkdir(parents=True)
-    for source in os.listdir(os.path.join(REPO, "shared")):
-        if source.endswith(".py"):
-            subprocess.run([mpy_cross, "-o", str(rom / "lib" / "shared" / (source[:-3] + ".mpy")),
-                            os.path.join(REPO, "shared", source)], check=True)
+    for source in _sources(sources):
+        out = rom / "lib" / (source[:-3] + ".mpy")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        subprocess.run([mpy_cross, "-o", str(out), os.path.join(REPO, source)], check=True)
     subprocess.run([mpy_cross, "-o", str(rom / (name + ".mpy")), script], check=True)
-    shutil.copyfile(natmod, rom / "fitsums.mpy")
+    shutil.copyfile(natmod, rom / (module + ".mpy"))
     with QemuBoard(rom=str(rom)) as board:
         return board.exec("import %s\n%s.main('/rom/lib', '/rom')" % (name, name))
 

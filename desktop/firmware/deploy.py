@@ -12,8 +12,9 @@ lib/, the entry points at the root, nothing of the simulation. Each mpremote ste
 subprocess `python -m mpremote connect PORT ...`, as a person would type it:
 
 1. `run info.py` (on-board/): the board's sys.implementation and free flash;
-2. mpy-cross compiles for the board's .mpy version and arch (with --mpy); the fit's native sums
-   (fitsums.mpy, desktop/firmware/natmod.py) join the files where built for that arch and version;
+2. mpy-cross compiles for the board's .mpy version and arch (with --mpy); the native modules
+   (desktop/firmware/natmod.py: fitsums.mpy, the fit's sums; drdy.mpy, the DRDY handler) join the
+   files where built for that arch and version;
 3. `fs mkdir` the staging folder .fluxcal-new/, then `fs cp` the files into it;
 4. `run swap.py` (on-board/): renames the staged files into place, undone if one fails;
 5. `reset`.
@@ -37,14 +38,16 @@ from desktop.firmware.files import firmware_files, root_files
 from desktop.firmware.image import build_image
 from desktop.firmware.interpreters import mpy_cross_exe
 from desktop.firmware.mpy import cross_version, decode_mpy, mpy_mismatch
-from desktop.firmware.natmod import MODULE, natmod_for
+from desktop.firmware.natmod import MODULES, natmod_for
 
 STAGE = ".fluxcal-new"   # beside main.py on the board: the new firmware while it is copied
 ON_BOARD = os.path.join(os.path.dirname(os.path.abspath(__file__)), "on-board")   # what mpremote runs there
 STEP_TIMEOUT_S = 300     # one mpremote step (a slow board's copy); a silent pty makes mpremote wait forever
 INFO_TIMEOUT_S = 15      # the first step: a board enters the raw REPL in seconds, mpremote gives up after 10 s
 MPY_DIR = "MPY"          # in a dry run, the temporary folder of the compiled files
-NATIVE = "lib/%s.mpy" % MODULE   # the native sums (desktop/firmware/natmod.py), where the board's arch has them
+# the native modules (desktop/firmware/natmod.py), where the board's arch has them
+NATIVES = tuple("lib/%s.mpy" % module for module in MODULES)
+NATIVE_SAYS = {"fitsums": "native sums", "drdy": "native DRDY handler"}   # in deploy's line
 REMOVE = ".fluxcal-remove"       # in the staging folder: what swap.py removes (the files no longer deployed)
 
 Board = collections.namedtuple("Board", "name mpy block free leftovers")
@@ -86,20 +89,25 @@ class MicroPythonDeploy:
 
     # ****** the mpremote commands ******
     def _local(self, src, path):
-        return os.path.join(self.image, *path.split("/")[1:]) if path.endswith(".mpy") and path != NATIVE else src
+        return os.path.join(self.image, *path.split("/")[1:]) if path.endswith(".mpy") and path not in NATIVES else src
 
     def _add_native(self, board):
-        """The fit's native sums join the files where a build matches the board's arch and .mpy
-        version (compiled or source); without them the board sums in pure Python (shared/fit.py),
-        to the same integers."""
-        native = natmod_for(board.mpy)
-        self.files = [f for f in self.files if f[1] != NATIVE]
-        if native is not None:
-            self.files.append((native, NATIVE))
-        # an earlier deploy's native module goes: of another arch it fails its import, of a
-        # matching one it would sum in place of the pure Python deployed
-        self.remove = [] if native is not None else [NATIVE]
-        return native is not None
+        """The native modules join the files where a build matches the board's arch and .mpy
+        version (compiled or source): the modules added. Without them the board sums in pure
+        Python (shared/fit.py), to the same integers, and runs Acquisition._isr, to the same counts."""
+        self.files = [f for f in self.files if f[1] not in NATIVES]
+        self.remove = []
+        added = []
+        for module, path in zip(MODULES, NATIVES):
+            native = natmod_for(board.mpy, module)
+            if native is not None:
+                self.files.append((native, path))
+                added.append(module)
+            else:
+                # an earlier deploy's module goes: of another arch it fails its import, of a
+                # matching one it would run in place of the pure Python deployed
+                self.remove.append(path)
+        return added
 
     def info_command(self):
         return mpremote(self.port, "run", os.path.join(ON_BOARD, "info.py"))
@@ -197,8 +205,8 @@ class MicroPythonDeploy:
         if self.compiled:
             self._compile(board)
             what = ".mpy v%d%s" % (board.mpy.version, " for " + board.mpy.arch if board.mpy.arch else "")
-        if self._add_native(board):
-            what += ", native sums"
+        for module in self._add_native(board):
+            what += ", " + NATIVE_SAYS[module]
         self._check_space(board)
         say("copying %d files (%s) to %s/ on %s" % (len(self.files), what, STAGE, self.port))
         try:

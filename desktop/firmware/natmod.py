@@ -1,14 +1,16 @@
-"""The firmware's native module (device/native/fitsums.c) as .mpy files, one per architecture.
+"""The firmware's native modules (device/native/*.c) as .mpy files, one per module and architecture:
+fitsums.c the fit's sums and the survey's |h_c|, drdy.c the DRDY handler.
 
-    python -m desktop.firmware.natmod build    # build what is missing (cached in build/)
-    natmod_path("armv6m")                      # build/interpreters/natmod/<sources>/armv6m/fitsums.mpy, or None
-    natmod_for(decode_mpy(board_mpy))          # the file a board loads, or None (pure Python there)
+    python -m desktop.firmware.natmod build        # build what is missing (cached in build/)
+    natmod_path("armv6m")                          # build/interpreters/natmod/<sources>/armv6m/fitsums.mpy, or None
+    natmod_path("armv6m", "drdy")                  # .../armv6m/drdy.mpy, or None
+    natmod_for(decode_mpy(board_mpy), "drdy")      # the file a board loads, or None (pure Python there)
 
 Built with MicroPython's native-module tooling (py/dynruntime.mk, tools/mpy_ld.py) from the
 rp2 source tree in ../shared/rp2, the same v1.28.0 as the emulated Pico, so the files are
 .mpy v6.3: what the pip `micropython`, the unix builds here and the Pico load. mpy_ld needs
 pyelftools (the test extra), the Arm ones arm-none-eabi-gcc, x86 gcc -m32. CircuitPython
-loads no MicroPython .mpy and keeps the pure-Python sums.
+loads no MicroPython .mpy and keeps the pure-Python sums and handler.
 """
 
 import glob
@@ -24,7 +26,8 @@ REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 SHARED = os.path.join(os.path.dirname(REPO), "shared")
 BUILD = os.path.join(REPO, "build", "interpreters", "natmod")
 SOURCE = os.path.join(REPO, "device", "native")
-MODULE = "fitsums"
+MODULE = "fitsums"                 # the fit's sums and the survey's |h_c|
+MODULES = (MODULE, "drdy")         # and the DRDY handler (device/native/<name>.c)
 # the architectures built: x64 the 64-bit unix ports, x86 the 32-bit one (micropython-reprc),
 # armv6m the RP2040's Cortex-M0+, armv7m Cortex-M3 boards (qemu-m3)
 ARCHS = ("x64", "x86", "armv6m", "armv7m")
@@ -61,18 +64,18 @@ def _stamp_ok(arch):
         return False
 
 
-def natmod_path(arch):
-    """The built fitsums.mpy for `arch` (an mpy-cross -march name), or None."""
-    path = os.path.join(_out(arch), MODULE + ".mpy")
-    return path if arch in ARCHS and os.path.exists(path) and _stamp_ok(arch) else None
+def natmod_path(arch, module=MODULE):
+    """The built <module>.mpy for `arch` (an mpy-cross -march name), or None."""
+    path = os.path.join(_out(arch), module + ".mpy")
+    return path if arch in ARCHS and module in MODULES and os.path.exists(path) and _stamp_ok(arch) else None
 
 
-def natmod_for(target):
-    """The fitsums.mpy a board loads (target: desktop.firmware.mpy.decode_mpy of its _mpy), or None
-    when none matches its architecture and .mpy version: the board then runs the pure-Python sums."""
+def natmod_for(target, module=MODULE):
+    """The <module>.mpy a board loads (target: desktop.firmware.mpy.decode_mpy of its _mpy), or None
+    when none matches its architecture and .mpy version: the board then runs the pure Python."""
     if target is None or (target.version, target.sub) != VERSION:
         return None
-    return natmod_path(target.arch)
+    return natmod_path(target.arch, module)
 
 
 def _tooling():
@@ -107,12 +110,18 @@ def _missing(arch):
     return None
 
 
+def _built(arch):
+    """Every module's .mpy for `arch`, or None."""
+    paths = [natmod_path(arch, m) for m in MODULES]
+    return None if None in paths else paths
+
+
 def build(arch, log=print):
-    """Build fitsums.mpy for one architecture unless it is there; returns its path or None."""
+    """Build every module's .mpy for one architecture unless they are there; returns their paths or None."""
     label = "natmod " + arch
-    if natmod_path(arch):
-        log("%-20s cached  %s" % (label, os.path.relpath(natmod_path(arch), REPO)))
-        return natmod_path(arch)
+    if _built(arch):
+        log("%-20s cached  %s" % (label, " ".join(os.path.relpath(p, REPO) for p in _built(arch))))
+        return _built(arch)
     missing = _missing(arch) if os.path.isdir(SOURCE) else "the sources (%s)" % SOURCE
     tree = None if missing else _tooling()
     if missing or tree is None:
@@ -127,15 +136,17 @@ def build(arch, log=print):
     # mpy_ld runs as `python3`: this interpreter's folder first, where pip put pyelftools
     env = dict(os.environ, PATH=os.path.dirname(sys.executable) + os.pathsep + os.environ.get("PATH", ""))
     with open(os.path.join(out, "build.log"), "w") as logfile:
-        r = subprocess.run(["make", "-C", out, "MPY_DIR=" + tree, "ARCH=" + arch], stdout=logfile,
-                           stderr=subprocess.STDOUT, env=env)
-    if r.returncode:
-        log("%-20s failed: make exited %d (see %s)" % (label, r.returncode, os.path.relpath(logfile.name, REPO)))
-        return None
+        for module in MODULES:
+            r = subprocess.run(["make", "-C", out, "MPY_DIR=" + tree, "ARCH=" + arch, "MOD=" + module],
+                               stdout=logfile, stderr=subprocess.STDOUT, env=env)
+            if r.returncode:
+                log("%-20s failed: make exited %d for %s (see %s)" % (label, r.returncode, module,
+                                                                     os.path.relpath(logfile.name, REPO)))
+                return None
     with open(os.path.join(out, "recipe"), "w") as fh:
         fh.write(_stamp())
-    log("%-20s built   %s" % (label, os.path.relpath(natmod_path(arch), REPO)))
-    return natmod_path(arch)
+    log("%-20s built   %s" % (label, " ".join(os.path.relpath(p, REPO) for p in _built(arch))))
+    return _built(arch)
 
 
 def main(argv=None):
