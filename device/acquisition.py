@@ -18,6 +18,9 @@ with shifts and summed (|sum| <= window * 2**23 <= 2**29 for window <= 64,
 inside the small-int range). A finished block goes into an array('i') ring as
 five ints (x, y, z, temperature sums, block number). A full ring drops the
 block and counts it; a block with a bad status header is discarded and counted.
+Where the board has drdy.mpy (device/native/drdy.c) and its HAL a `drdy_bus`,
+`isr` is the same handler in C, which the hard IRQ calls without entering the
+bytecode VM; `_isr` is the reference, and the handler everywhere else.
 
 Why a short window: a vector averaged over a rotation arc of angle a shrinks by
 sin(a/2)/(a/2) ~ 1 - a**2/24; at 1 rev/s a 2.5 ms window biases |B| by
