@@ -59,7 +59,9 @@ class Session:
         dev.ask("stream corrected", timeout=120)
         self.act("spin")
         self.wait(SETTLE_S)
-        while dev.next_event(0.3) is not None:     # the blocks before the window
+        # the blocks before the window: only those already here (the stream never pauses, so
+        # waiting for a quiet moment never ends on a board as fast as real time)
+        while dev.next_event(0.0) is not None:
             pass
         survey = self.window(window_s)
         blocks = []
