@@ -2,8 +2,8 @@
 
     g = Gates(cfg, fit, cov, window, period_ms, centre)   # centre: sum units (prior offset or 0)
     g.sample(sx, sy, sz)      # True if it went into fit (and cov)
-    g.provisional = cal       # a provisional fit good enough to judge disturbances (session.py)
-    g.dist_limit = nt         # the disturbance gate, from that fit's residual
+    g.use_provisional(cal, nt)   # a provisional fit good enough to judge disturbances, and the
+                                 # disturbance gate from its residual, nT (session.py)
 
 The gates, in order (each rejection is counted and reported). They work on the
 sums shifted down to ~14 bits (`_sh`, full scale < 2**14), so every product
@@ -47,6 +47,7 @@ from array import array
 
 from residuals import ResidualBatches
 from shared.delag import configured_tau_s, lag_dps, sensor_tau_s
+from shared.fixedpoint import FRACTION_BITS, ExactCorrection
 
 HIST = 256           # recent accepted samples kept for removal (5 ints each)
 _RUN = 3             # consecutive outliers that make a disturbance
@@ -106,7 +107,8 @@ class Gates:
         self.rej_dist = 0
         self.rej_cap = 0
         self.removed = 0
-        self.provisional = None
+        self.provisional = None     # use_provisional: the fit the disturbance gate judges with
+        self._exact = None          # ... as shared.fixedpoint's |h_c| in C, where the port has it
         self.dist_limit = cfg["outlier_nt"]
         self._cap = cfg["cell_cap"]
         self._fresh = True          # no previous sample to compare with
@@ -136,6 +138,23 @@ class Gates:
         self._filled = 0
         g = g * stride
         self._g = max(1, int(g * g * (1 << _G_SHIFT) + 0.5))   # max squared turn angle per stride
+
+    def use_provisional(self, cal, dist_limit):
+        """Judge disturbances against `cal` (sum units; None: not yet) at `dist_limit` nT. Where
+        fitsums.mpy has the exact |h_c| (shared/fixedpoint.py, path "native") the gate compares
+        integers in 1/2**FRACTION_BITS milli-nT: ~20 k cycles a sample on an RP2040 against
+        ~95 k for the float |h_c|, whose every operation allocates (docs/benchmarks.md)."""
+        self.provisional = cal
+        self.dist_limit = dist_limit
+        self._exact = None
+        if cal is not None:
+            ex = ExactCorrection(cal, 1)
+            if ex.path == "native":
+                self._exact = ex
+                unit = 1000 << FRACTION_BITS
+                self._field_q = int(cal.field * unit + 0.5)
+                self._limit_q = int(dist_limit * unit)
+                self._settled_q = int(0.1 * dist_limit * unit)
 
     def break_chain(self):
         """Samples were lost: the next one has no neighbour to gate its turn rate against."""
@@ -182,8 +201,16 @@ class Gates:
         # well below the gate. A new orientation is never called a disturbance.
         pc = self.provisional
         if pc is not None and (n >= 3 or self._hold):
-            dev = abs(pc.magnitude(sx, sy, sz) - pc.field)
-            if dev > self.dist_limit:
+            ex = self._exact
+            if ex is not None:
+                dev = abs(ex.magnitude(sx, sy, sz) - self._field_q)
+                limit = self._limit_q
+                settled = self._settled_q
+            else:
+                dev = abs(pc.magnitude(sx, sy, sz) - pc.field)
+                limit = self.dist_limit
+                settled = 0.1 * limit
+            if dev > limit:
                 self.rej_dist += 1
                 self._dist_run += 1
                 if self._dist_run == _RUN:
@@ -195,7 +222,7 @@ class Gates:
                 # back-off: a dipole's 1/r^3 tail stays above the noise long after it
                 # falls under the gate; hold until it is under a tenth of the gate for 1 s
                 self.rej_dist += 1
-                if dev > 0.1 * self.dist_limit:
+                if dev > settled:
                     self._hold = self.back
                 else:
                     self._hold -= 1

@@ -203,9 +203,9 @@ class Session:
         d = cal.diagnostics
         pe = d.get("predicted_error")
         self.provisional_error = pe
-        g.dist_limit = disturbance_limit(self.cfg, d.get("rms", 0.0), pe or 0.0)
+        limit = disturbance_limit(self.cfg, d.get("rms", 0.0), pe or 0.0)
         # gate disturbances only with a fit good to a quarter of the gate
-        g.provisional = cal if (pe is not None and pe < 0.25 * g.dist_limit) else None
+        g.use_provisional(cal if (pe is not None and pe < 0.25 * limit) else None, limit)
         return True
 
     def coverage(self):
