@@ -101,10 +101,10 @@ class ResidualBatches:
         centred = []
         n = 0
         for f, fit in enumerate(self._fits):
-            now = fit.sums()
+            now = fit.low_sums()
             m = self._marks[f]
             d = [now[i] - m[i] for i in range(10)]
-            self._marks[f] = now[:10]
+            self._marks[f] = now
             n = d[0]
             out = [d[1 + a] - c[a] * n for a in range(3)]
             for a in range(3):

@@ -109,6 +109,16 @@ class EllipsoidFit:
         self._unpack()
         return list(self._s)
 
+    def low_sums(self):
+        """A copy of the first 10 sums (the count, degree 1 and 2: shared.moments.ORDER). With the
+        native words and no pack in use only those ten are drained, a quarter of a full drain's
+        big-integer work (device/residuals.py reads them at every batch's end)."""
+        if fitsums is not None and (not self._k or self._room == _FLUSH):
+            self._take_words(10)
+        else:
+            self._unpack()
+        return self._s[:10]
+
     def add(self, x, y, z, _out=False):
         # MicroPython and CircuitPython have no int-like types but bool: the slot check's `|`
         # rejects the rest (floats) for free. CPython's numpy integers would pass it and
@@ -165,19 +175,27 @@ class EllipsoidFit:
             self._add_packed(x, y, z, _out)
 
         def _drain(self):
-            """Add the native words into the sums and zero them: sum n is the 128-bit two's
-            complement in words 4(n-1) .. 4n-1, least significant first (the top word signed)."""
+            """Add the native words into the sums and zero them."""
+            if self._words[fitsums.LEFT] < _DRAIN:
+                self._take_words(COUNT)
+            self._words[fitsums.LEFT] = _DRAIN
+
+        def _take_words(self, end):
+            """Add the count's and sums 1 .. end-1's native words into the sums and zero them: sum
+            n is the 128-bit two's complement in words 4(n-1) .. 4n-1, least significant first
+            (the top word signed). The words' LEFT stands: the others still hold their samples."""
             w = self._words
-            if w[fitsums.LEFT] < _DRAIN:
-                s = self._s
-                s[0] += w[fitsums.COUNT]
-                m = 0xFFFFFFFF
-                for n in range(1, COUNT):
-                    j = 4 * n - 4
-                    s[n] += (w[j] & m) | ((w[j + 1] & m) << 32) | ((w[j + 2] & m) << 64) | (w[j + 3] << 96)
-                for j in range(fitsums.WORDS):
-                    w[j] = 0
-            w[fitsums.LEFT] = _DRAIN
+            s = self._s
+            s[0] += w[fitsums.COUNT]
+            w[fitsums.COUNT] = 0
+            m = 0xFFFFFFFF
+            for n in range(1, end):
+                j = 4 * n - 4
+                s[n] += (w[j] & m) | ((w[j + 1] & m) << 32) | ((w[j + 2] & m) << 64) | (w[j + 3] << 96)
+                w[j] = 0
+                w[j + 1] = 0
+                w[j + 2] = 0
+                w[j + 3] = 0
 
     def remove(self, x, y, z):
         if self.n < 1:

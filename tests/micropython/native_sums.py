@@ -76,6 +76,16 @@ def cases(fit):
     a.merge(b)
     out.append(a.sums())
     out.append(b.sums())
+    # the first ten read every 32 samples, as the residual batches read them (only their words
+    # drained), with removes and, in the second half, codes the words do not take (packs in use)
+    f = E()
+    for i, (x, y, z) in enumerate(_codes(4, 600)):
+        f.add(x, y, (1 << 24) + i if i >= 300 and i % 5 == 0 else z)
+        if i % 9 == 0:
+            f.remove(x, y, z)
+        if i % 32 == 31:
+            out.append(f.low_sums())
+    out.append(f.sums())
     try:
         E().add(1.5, 2, 3)
         refused = None
