@@ -16,18 +16,19 @@ import calibration_flow
 import gates
 import hal_micropython
 import protocol
+import residuals
 import screen
 import session
 import survey
 from machine import mem32
 from micropython import const
 
-from shared import fit
+from shared import coverage, fit
 
 _PORT = const(0x40068000)
 _ENTRY = const(0x100)      # on the way in: the runner counts a call (reads give the number alone)
 # the parts' numbers, as desktop/bench/pico.py names them (0: the rest of the main loop)
-REST, SCREEN, GATES, ADD, SOLVE, OUTPUT, PROTOCOL, FINISH = 0, 1, 2, 3, 4, 5, 6, 8
+REST, SCREEN, GATES, ADD, SOLVE, OUTPUT, PROTOCOL, FINISH, CELL, BATCHES = 0, 1, 2, 3, 4, 5, 6, 8, 9, 11
 
 
 def _w1(f, part, parent):
@@ -74,7 +75,9 @@ def _wrap(cls, name, wrapper, part, parent=None):
 _wrap(survey.Output, "sample", _w5, OUTPUT, REST)          # per sample: |h_c|, the block, the data event
 _wrap(screen.Screen, "push", _w5, SCREEN, OUTPUT)          # ... first the spike screen,
 _wrap(gates.Gates, "sample", _w4, GATES, OUTPUT)           # ... then a session's gates,
-_wrap(fit.EllipsoidFit, "add", _w4, ADD, GATES)            # ... which add() what they accept
+_wrap(fit.EllipsoidFit, "add", _w4, ADD, GATES)            # ... which add() what they accept,
+_wrap(coverage.Coverage, "cell", _w4, CELL, GATES)         # ... place it in its coverage cell
+_wrap(residuals.ResidualBatches, "added", _w1, BATCHES, GATES)   # ... and count it into its batch
 _wrap(protocol.Protocol, "poll", _w1, PROTOCOL, REST)      # the serial line: read, parse, answer
 _wrap(session.Session, "_solve", _nested, SOLVE)           # every solve_every_s, and the final one
 _wrap(calibration_flow.CalibrationFlow, "finish", _nested, FINISH)   # the checks, tempco, the save
