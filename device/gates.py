@@ -47,7 +47,7 @@ from array import array
 
 from residuals import ResidualBatches
 from shared.delag import configured_tau_s, lag_dps, sensor_tau_s
-from shared.fixedpoint import FRACTION_BITS, ExactCorrection
+from shared.fixedpoint import FRACTION_BITS, NATIVE, ExactCorrection
 
 HIST = 256           # recent accepted samples kept for removal (5 ints each)
 _RUN = 3             # consecutive outliers that make a disturbance
@@ -147,7 +147,7 @@ class Gates:
         self.provisional = cal
         self.dist_limit = dist_limit
         self._exact = None
-        if cal is not None:
+        if cal is not None and NATIVE:
             ex = ExactCorrection(cal, 1)
             if ex.path == "native":
                 self._exact = ex

@@ -41,6 +41,7 @@ try:
     from fitsums import magnitude as _native_magnitude
 except (ImportError, ValueError):    # ValueError: a .mpy of another architecture or version
     _native_magnitude = None
+NATIVE = _native_magnitude is not None   # |h_c| in C can run here (a correction's `path` says if it does)
 
 FRACTION_BITS = 8        # |h_c| and its axes carry 8 bits below the milli-nT
 _COEF_BITS = 36          # the coefficients' bits below the milli-nT (precision above)
