@@ -14,124 +14,210 @@ So sample i is a spike when it departs from BOTH neighbours in the SAME
 direction by more than that bend plus a threshold:
     min(|x_i - x_(i-1)|, |x_i - x_(i+1)|) > spike_nt + max(TYPICAL * typical, 2 |v|**2 / |h|)
 on one axis (nT), with TYPICAL = 4 and `typical` a running mean of that same quantity
-(it is large while the hand reverses quickly, noise-sized at rest). A step
-fails the test (x_i equals its next neighbour); smooth motion fails it
-(the two differences have opposite signs). A false alarm costs one sample;
-a spike let through costs nT in the survey (docs/reliability.md has both rates).
+(weight 1/16, learnt one sample late; it is large while the hand reverses quickly,
+noise-sized at rest). A step fails the test (x_i equals its next neighbour); smooth
+motion fails it (the two differences have opposite signs). A false alarm costs one
+sample; a spike let through costs nT in the survey (docs/reliability.md has both rates).
+
+In integers: the MicroPython ports box every float (a heap allocation per operation,
+slower as the heap fills), a small int (|n| < 2**30) is none. The screen's nT are
+integers of 2**-12 nT (UNIT_BITS); an axis's k = scale / window nT per sum unit enters
+as m / 2**sh with m of 13 significant bits (2**12 <= m < 2**13, rounded once, exactly,
+from the interpreter's float: SCALE_BITS), so a difference s of sums is (s * m) >> sh
+units, a small int for |s| < 2**17 (a turning hand's bends at window 2 are ~2**15; a
+larger one, a spike or a step, is a big integer, exact and slower). The running mean of
+2 x the bend (= TYPICAL * typical) is rounded to the unit each sample.
+Resolution: every quantity is within 2**-11 of itself (0.05 %) plus 2**-8 nT of the
+float screen's, so a verdict differs from the float one's only for a sample that
+close to its threshold (tests/test_device_screen.py counts them on the simulator's
+streams). A sample stands out by at most half its bend |2c - p - n| (the nearer
+neighbour), which the running mean needs anyway: only where half the largest bend is
+past spike_nt + TYPICAL * typical (a spike, a sharp turn) is the stand-out computed,
+and only where that is past too the bend |v|^2 / |h|, compared exactly (squared, no
+root) in big integers. Integers are exact: the verdicts are the same on every
+interpreter, CPython, MicroPython and the 30-bit floats of CircuitPython alike (for the
+same scale and spike_nt as each parses them; a scale within 2**-22 of a rounding edge
+of its 13 bits could round apart on a 30-bit float).
 
 Clipped: a boxcar of full-scale codes ([DS 8.3.8] saturates at 0x7FFFFF / 0x800000)
 means the sensor or the PGA gain exceeds the ADC's range; the sample is not
 the field (session.py names it `clipped` when it happens during a calibration).
 """
 
+from shared.fixedpoint import float_pair
+
 CLIP_CODES = 8323072   # 2**23 - 2**16: within 0.8 % of full scale
-TYPICAL = 4.0          # times the running mean bend a sample may stand out by
+TYPICAL = 4            # times the running mean bend a sample may stand out by
+UNIT_BITS = 12         # the screen's nT unit: 2**-12 nT
+SCALE_BITS = 12        # an axis's multiplier: 2**12 <= m < 2**13 (rounding: 2**-13 relative)
+
+
+def _nearest(p, shift, den):
+    """p = (m, e), a float's exact pair: m 2**(e + shift) / den rounded to the nearest integer."""
+    k = p[1] + shift
+    num = p[0] << k if k >= 0 else p[0]
+    den = den if k >= 0 else den << -k
+    return (2 * num + den) // (2 * den)
+
+
+def multiplier(scale, window):
+    """(m, sh): scale / window nT per sum unit = m / 2**sh units of 2**-UNIT_BITS nT, m rounded
+    to SCALE_BITS + 1 bits (sh >= 0: a coarser k keeps sh = 0 and m's extra bits)."""
+    p = float_pair(scale)
+    sh = 0
+    m = _nearest(p, UNIT_BITS, window)
+    while m < 1 << SCALE_BITS:
+        sh += 1
+        m = _nearest(p, UNIT_BITS + sh, window)
+    return m, sh
+
+
+def _out(a, e, m, sh):
+    """How far c stands out from p and n on one axis (a = c - p, e = c - n, sums), in units:
+    the nearer of the two where both are on the same side, else 0."""
+    if a > 0 and e > 0:
+        return ((a if a < e else e) * m) >> sh
+    if a < 0 and e < 0:
+        return (-(a if a > e else e) * m) >> sh
+    return 0
 
 
 class Screen:
     def __init__(self, scale, window, spike_nt):
-        # nT per sum unit, per axis
-        self.k = (scale[0] / window, scale[1] / window, scale[2] / window)
-        self.clip = CLIP_CODES * window
+        # per axis: nT per sum unit as (m, sh), the screen's units (s * m) >> sh
+        mx, sx = multiplier(scale[0], window)
+        my, sy = multiplier(scale[1], window)
+        mz, sz = multiplier(scale[2], window)
+        self.clip = c = CLIP_CODES * window
         self.spike_nt = spike_nt
+        self._spike = sp = _nearest(float_pair(spike_nt), UNIT_BITS, 1)   # in units
+        self._k = (c, -c, sp, mx, sx, my, sy, mz, sz)   # one unpacking a push
+        self._g = max(sx, sy, sz)     # the bend's common fraction bits
         self.spikes = 0      # samples rejected as spikes
         self.clipped = 0     # samples rejected as clipped
         self.clip_axis = None   # the axis of the last one (0, 1, 2)
+        # the held samples as c - p and c: ax, ay, az, cx, cy, cz, ct (a list: an index costs
+        # about what an attribute does on MicroPython, and one unpacking reads them all)
+        self._st = [0, 0, 0, 0, 0, 0, 0]
         self.reset()
 
     def reset(self):
         """Forget the held samples (a gap: the next one has no neighbour)."""
         self._n = 0          # samples held: 0, 1 (c) or 2 (p, c)
-        self._typ = 0.0
-        self._pending = -1.0   # the last accepted sample's bend, not yet learnt (< 0: none)
+        # spike_nt + allow, units; allow = TYPICAL * typical, the running mean of 2 x the bend
+        self._thr = self._spike
+        self._pending = -1   # the last accepted sample's 2 x bend, not yet learnt (< 0: none)
+
+    def allowance(self):
+        """TYPICAL * typical, in units of 2**-UNIT_BITS nT (an int)."""
+        return self._thr - self._spike
 
     def push(self, x, y, z, t):
         """Take the next sample; True when the one before it is good (it is then in .x .y .z .t)."""
-        c = self.clip
-        if x >= c or x <= -c or y >= c or y <= -c or z >= c or z <= -c:
+        c, nc, sp, mx, sx, my, sy, mz, sz = self._k
+        if x >= c or x <= nc or y >= c or y <= nc or z >= c or z <= nc:
             self.clipped += 1
-            self.clip_axis = 0 if (x >= c or x <= -c) else (1 if (y >= c or y <= -c) else 2)
+            self.clip_axis = 0 if (x >= c or x <= nc) else (1 if (y >= c or y <= nc) else 2)
             self.reset()     # a clipped sample is no neighbour either
             return False
+        st = self._st
         n = self._n
-        good = False
-        if n == 2:
-            k = self.k
-            cx = self._cx
-            cy = self._cy
-            cz = self._cz
-            # how far c stands out from both neighbours on each axis (nT; 0 unless on the same
-            # side of both), the largest of the three; written out, no call per axis
-            a = cx - self._px
-            e = cx - x
-            d = (a if a < e else e) * k[0] if a > 0 and e > 0 else (
-                -(a if a > e else e) * k[0] if a < 0 and e < 0 else 0.0)
-            a = cy - self._py
-            e = cy - y
-            e = (a if a < e else e) * k[1] if a > 0 and e > 0 else (
-                -(a if a > e else e) * k[1] if a < 0 and e < 0 else 0.0)
-            if e > d:
-                d = e
-            a = cz - self._pz
-            e = cz - z
-            e = (a if a < e else e) * k[2] if a > 0 and e > 0 else (
-                -(a if a > e else e) * k[2] if a < 0 and e < 0 else 0.0)
-            if e > d:
-                d = e
-            allow = TYPICAL * self._typ
-            # The bend |v|^2 / |h| only raises the allowance, and a rounded sum never falls as a
-            # term grows: a sample within spike_nt + TYPICAL * typical passes whatever the bend,
-            # so its ten float operations run only for the few that stand out that far.
-            if d > self.spike_nt + allow:
-                # |v|^2 / |h| in nT: v from the outer neighbours, over two periods
-                vx = (x - self._px) * k[0]
-                vy = (y - self._py) * k[1]
-                vz = (z - self._pz) * k[2]
-                hx = cx * k[0]
-                hy = cy * k[1]
-                hz = cz * k[2]
-                h2 = hx * hx + hy * hy + hz * hz
-                bend = 0.5 * (vx * vx + vy * vy + vz * vz) / (h2 ** 0.5) if h2 > 0 else 0.0
-                if bend > allow:
-                    allow = bend
-                if d > self.spike_nt + allow:
-                    self.spikes += 1
-                    self._pending = -1.0   # its bend involved this spike
-                    # c is dropped; p stays p (the next judgement spans two periods, a little looser)
-                    self._cx = x
-                    self._cy = y
-                    self._cz = z
-                    self._ct = t
-                    return False
-            # the typical bend of the accepted stream: |2c - p - n| / 2, largest axis
-            e = cx + cx - self._px - x
-            e = (e if e > 0 else -e) * k[0]
-            f = cy + cy - self._py - y
-            f = (f if f > 0 else -f) * k[1]
-            if f > e:
-                e = f
-            f = cz + cz - self._pz - z
-            f = (f if f > 0 else -f) * k[2]
-            if f > e:
-                e = f
-            # learnt one sample late, once the next sample (in e) has passed too: a spike
-            # beside a good sample must not teach the screen to allow spikes
-            if self._pending >= 0.0:
-                self._typ += (self._pending - self._typ) * 0.0625
-            self._pending = 0.5 * e
-            good = True
-            self.x = cx
-            self.y = cy
-            self.z = cz
-            self.t = self._ct
-        if n >= 1:
-            self._px = self._cx
-            self._py = self._cy
-            self._pz = self._cz
-        self._cx = x
-        self._cy = y
-        self._cz = z
-        self._ct = t
-        self._n = n + 1 if n < 2 else 2
-        return good
+        if n < 2:
+            st[0] = x - st[3]   # c - p once the next is c
+            st[1] = y - st[4]
+            st[2] = z - st[5]
+            st[3] = x
+            st[4] = y
+            st[5] = z
+            st[6] = t
+            self._n = n + 1
+            return False
+        ax, ay, az, cx, cy, cz, ct = st
+        # the bend of c, |2c - p - n| = |(c - p) - (n - c)| per axis in units, the largest
+        ex = x - cx
+        e = ax - ex
+        e = ((e if e > 0 else -e) * mx) >> sx
+        ey = y - cy
+        a = ay - ey
+        a = ((a if a > 0 else -a) * my) >> sy
+        if a > e:
+            e = a
+        ez = z - cz
+        a = az - ez
+        a = ((a if a > 0 else -a) * mz) >> sz
+        if a > e:
+            e = a
+        # c stands out from both neighbours on an axis (same side of both) by the nearer
+        # one, min(|c - p|, |c - n|) <= |2c - p - n| / 2: within spike_nt + allow by half
+        # the largest bend, it stands out by no more (exact: floors keep the order). Else
+        # (a spike, a sharp bend: a few a second) the stand-out itself, then the bend
+        if e >> 1 > self._thr and self._stands_out(x, y, z):
+            self.spikes += 1
+            self._pending = -1     # its bend involved this spike
+            # c is dropped; p stays p (the next judgement spans two periods, a little looser)
+            st[0] = ax + ex
+            st[1] = ay + ey
+            st[2] = az + ez
+            st[3] = x
+            st[4] = y
+            st[5] = z
+            st[6] = t
+            return False
+        # the typical bend of the accepted stream: |2c - p - n| / 2, held as TYPICAL x it
+        # (2 |2c - p - n|, the allowance's own unit), learnt one sample late, once the next
+        # sample has passed too: a spike beside a good sample must not teach the screen to
+        # allow spikes. The mean's step (p - allow) / 16 is rounded to the nearest unit
+        # (halves up): +-0.5 unit a sample, at most 8 units (2**-9 nT) under the weight 15/16.
+        # With allow = thr - sp: allow += (p - allow + 8) >> 4, on thr itself
+        a = self._pending
+        if a >= 0:
+            c = self._thr
+            self._thr = c + ((a + sp - c + 8) >> 4)
+        self._pending = e + e
+        self.x = cx
+        self.y = cy
+        self.z = cz
+        self.t = ct
+        st[0] = ex
+        st[1] = ey
+        st[2] = ez
+        st[3] = x
+        st[4] = y
+        st[5] = z
+        st[6] = t
+        return True
 
+    def _stands_out(self, x, y, z):
+        """True when c (held) is a spike: it stands out (units, largest axis) past spike_nt +
+        max(allow, the bend |v|^2 / (2 |h|)), v = n - p (two periods) and h = c."""
+        _, _, _, mx, sx, my, sy, mz, sz = self._k
+        ax, ay, az, cx, cy, cz, _ = self._st
+        d = _out(ax, cx - x, mx, sx)
+        e = _out(ay, cy - y, my, sy)
+        if e > d:
+            d = e
+        e = _out(az, cz - z, mz, sz)
+        if e > d:
+            d = e
+        if d <= self._thr:
+            return False
+        # past the bend too: d - spike_nt > |v|^2 / (2 |h|). Exact: each axis in units of
+        # 2**-g (its multiplier shifted to the common g bits), then, both sides positive,
+        # (2 (d - spike) 2**g)^2 |h|^2 > (|v|^2)^2; big integers
+        g = self._g
+        mx <<= g - sx
+        my <<= g - sy
+        mz <<= g - sz
+        hx = cx * mx
+        hy = cy * my
+        hz = cz * mz
+        h2 = hx * hx + hy * hy + hz * hz
+        if h2 == 0:         # no field to bend around: the bend is 0
+            return True
+        # n - p = (n - c) + (c - p)
+        vx = (x - cx + ax) * mx
+        vy = (y - cy + ay) * my
+        vz = (z - cz + az) * mz
+        v2 = vx * vx + vy * vy + vz * vz
+        w = (d - self._spike) << (g + 1)
+        return w * w * h2 > v2 * v2

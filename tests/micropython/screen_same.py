@@ -1,19 +1,21 @@
-# Runs under CPython and each MicroPython/CircuitPython build, from argv (the repository root):
-# device/screen.py's Screen against the screen as first written (ReferenceScreen below: every
-# sample's bend and allowance computed, a call per axis), on the same streams: a turning
-# field with noise, one-sample spikes of every size, steps, reversals, clipped and
-# full-scale codes (+-2**23), and a fixed 32-bit LCG's random codes (not `random`, whose
-# generator differs between runtimes). Prints one JSON line: whether every verdict, every
-# accepted sample and every counter matched on this interpreter, and how many samples ran.
+# Runs under CPython and each MicroPython/CircuitPython build, from argv (the repository root,
+# a file of streams written by tests/test_device_screen.py): device/screen.py's integer Screen
+# on every stream, and the float screen it replaced (FloatScreen below: the screen as first
+# written, every sample's bend computed) beside it. The file's lines: "cfg sx sy sz window
+# spike_nt" starts a screen pair, "gap" resets both, "x y z t" is a sample (integers).
+# Prints one JSON line per cfg (the integer screen's counts and a digest of its verdicts and
+# learnt allowance, which must be the same on every interpreter) and a last one: how often
+# the two screens disagreed, and how many of those were within the integer screen's stated
+# resolution of the float one's threshold (borderline; after each disagreement both reset,
+# so the next judgement starts from the same state).
 import json
-import math
 import sys
 
-TOP = 1 << 23
+MASK = 0x3FFFFFFF
 
 
-class ReferenceScreen:
-    """The spike screen as first written: the reference the faster one must equal bit for bit."""
+class FloatScreen:
+    """The float spike screen (device/screen.py before the integers): the reference."""
 
     def __init__(self, scale, window, spike_nt):
         self.k = (scale[0] / window, scale[1] / window, scale[2] / window)
@@ -28,8 +30,11 @@ class ReferenceScreen:
         self._n = 0
         self._typ = 0.0
         self._pending = -1.0
+        self.margin = None      # the last judgement: d - threshold (nT), and the bound on it
+        self.bound = None
 
     def push(self, x, y, z, t):
+        self.margin = None
         c = self.clip
         if x >= c or x <= -c or y >= c or y <= -c or z >= c or z <= -c:
             self.clipped += 1
@@ -41,13 +46,16 @@ class ReferenceScreen:
         if n == 2:
             k = self.k
             cx, cy, cz = self._cx, self._cy, self._cz
-            d = max(_bend(cx - self._px, cx - x, k[0]), _bend(cy - self._py, cy - y, k[1]),
-                    _bend(cz - self._pz, cz - z, k[2]))
+            d = max(_out(cx - self._px, cx - x, k[0]), _out(cy - self._py, cy - y, k[1]),
+                    _out(cz - self._pz, cz - z, k[2]))
             v = [(x - self._px) * k[0], (y - self._py) * k[1], (z - self._pz) * k[2]]
             h = [cx * k[0], cy * k[1], cz * k[2]]
             h2 = h[0] * h[0] + h[1] * h[1] + h[2] * h[2]
             bend = 0.5 * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) / (h2 ** 0.5) if h2 > 0 else 0.0
             allow = 4.0 * self._typ
+            # device/screen.py's resolution: each quantity within 2**-11 of itself + 2**-8 nT
+            self.margin = d - self.spike_nt - max(allow, bend)
+            self.bound = (d + self.spike_nt + allow + bend) / 2048.0 + 1 / 256.0
             if bend > allow:
                 allow = bend
             if d > self.spike_nt + allow:
@@ -69,7 +77,7 @@ class ReferenceScreen:
         return good
 
 
-def _bend(a, b, k):
+def _out(a, b, k):
     if a > 0 and b > 0:
         return (a if a < b else b) * k
     if a < 0 and b < 0:
@@ -77,72 +85,63 @@ def _bend(a, b, k):
     return 0.0
 
 
-class Lcg:
-    def __init__(self, seed):
-        self.s = seed
-
-    def next(self, bits):
-        self.s = (1103515245 * self.s + 12345) & 0xFFFFFFFF
-        return self.s >> (32 - bits)
-
-
-def streams(window):
-    """(x, y, z, t) boxcar sums of `window` codes each, and a None where the stream has a gap."""
-    r = Lcg(7)
-    full = TOP * window
-    amp = 3300000 * window      # ~48 uT at the default scale
-    for turn_dps in (30.0, 360.0, 1500.0):
-        w = turn_dps * math.pi / 180.0 / 100.0     # rad per sample at 100 samples/s
-        for i in range(800):
-            a = i * w
-            noise = r.next(6) - 32
-            x = int(amp * math.cos(a)) + noise
-            y = int(amp * math.sin(a) * 0.9) - noise
-            z = int(amp * 0.3) + (r.next(4) - 8)
-            if i % 37 == 5:                   # a flipped bit 2**k in one frame of the boxcar
-                bit = 1 << (8 + r.next(4))
-                x += bit if r.next(1) else -bit
-            if i % 53 == 11:                  # a step that stays
-                z += 40000
-            if i % 97 == 50:                  # a reversal of the hand
-                w = -w
-            yield x, y, z, i
-        yield None
-    for i in range(3000):                     # random codes anywhere in the range, clipped ones included
-        yield ((r.next(24) - TOP) * window, (r.next(24) - TOP) * window, (r.next(24) - TOP) * window, i)
-    edges = (-full, full - 1, -full + 1, 0, 1, -1, full >> 1, 8323072 * window, 8323072 * window - 1)
-    for x in edges:
-        for y in edges:
-            for z in edges:
-                yield x, y, z, 0
-    for i in range(300):                      # a still field: the typical bend learnt at noise level
-        yield 1000000 + r.next(3), -2000000 + r.next(3), 500000, i
-
-
-def main(root):
+def main(root, path):
     sys.path.insert(0, root + "/device")
+    sys.path.insert(0, root)
     from screen import Screen
-    same = True
-    n = 0
-    for scale, window, spike_nt in (((0.0144243258, 0.0144243258, 0.0144243258), 2, 5.0),
-                                    ((0.011, 0.0173, 0.0144), 1, 0.5), ((1e-6, 1e3, 2.5), 64, 50.0)):
-        new = Screen(scale, window, spike_nt)
-        ref = ReferenceScreen(scale, window, spike_nt)
-        for s in streams(window):
-            if s is None:
+    run = {"samples": 0, "judged": 0, "near": 0, "disagree": 0, "borderline": 0, "worst": 0.0, "accepted_differ": 0}
+    new = ref = alone = None
+    digest = 0
+
+    def close():
+        if alone is not None:
+            print(json.dumps({"spikes": alone.spikes, "clipped": alone.clipped, "digest": digest,
+                              "float_spikes": ref.spikes}))
+
+    with open(path) as fh:
+        for line in fh:
+            w = line.split()
+            if w[0] == "cfg":
+                close()
+                scale = (float(w[1]), float(w[2]), float(w[3]))
+                window = int(w[4])
+                spike_nt = float(w[5])
+                new = Screen(scale, window, spike_nt)      # beside the float one, reset with it
+                ref = FloatScreen(scale, window, spike_nt)
+                alone = Screen(scale, window, spike_nt)    # on its own: the digest
+                digest = 0
+                continue
+            if w[0] == "gap":
                 new.reset()
                 ref.reset()
+                alone.reset()
                 continue
-            n += 1
-            a = new.push(s[0], s[1], s[2], s[3])
-            b = ref.push(s[0], s[1], s[2], s[3])
-            if a != b or new._typ != ref._typ or (a and (new.x, new.y, new.z, new.t) != (ref.x, ref.y, ref.z, ref.t)):
-                same = False
-        if (new.spikes, new.clipped, new.clip_axis) != (ref.spikes, ref.clipped, ref.clip_axis):
-            same = False
-        print(json.dumps({"spikes": ref.spikes, "clipped": ref.clipped}))
-    print(json.dumps({"same": same, "samples": n}))
+            x, y, z, t = int(w[0]), int(w[1]), int(w[2]), int(w[3])
+            run["samples"] += 1
+            g = alone.push(x, y, z, t)
+            digest = (digest * 31 + (2 if g else 1) + 4 * (alone.allowance() & 0xFFFFF)) & MASK
+            if g:
+                digest = (digest * 31 + ((alone.x ^ alone.y ^ alone.z ^ alone.t) & 0xFFFFF)) & MASK
+            a = new.push(x, y, z, t)
+            b = ref.push(x, y, z, t)
+            if ref.margin is not None:
+                run["judged"] += 1
+                if abs(ref.margin) <= ref.bound:
+                    run["near"] += 1
+            if a != b:
+                run["disagree"] += 1
+                r = abs(ref.margin) / ref.bound
+                if r <= 1.0:
+                    run["borderline"] += 1
+                if r > run["worst"]:
+                    run["worst"] = r
+                new.reset()
+                ref.reset()
+            elif a and (new.x, new.y, new.z, new.t) != (ref.x, ref.y, ref.z, ref.t):
+                run["accepted_differ"] += 1
+    close()
+    print(json.dumps(run))
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    main(sys.argv[1], sys.argv[2])
