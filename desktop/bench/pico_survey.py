@@ -1,4 +1,4 @@
-"""The survey output's cost on the emulated Raspberry Pi Pico: cycles per decimated sample.
+"""The survey output's and the spike screen's cost on the emulated Raspberry Pi Pico: cycles per sample.
 
     python -m desktop.bench.pico_survey                      # this checkout's device/ and shared/
     python -m desktop.bench.pico_survey --source OTHER_TREE  # another checkout's, to compare
@@ -9,6 +9,9 @@ spin) on the rp2 port's firmware in the RP2040 emulator, the modules as .mpy fro
 own mpy-cross: emulated time per decimated sample through Output.sample (block outputs
 included), per |h_c| alone, per block output alone; x 125 gives cycles (125 MHz). The
 stand-ins (serial line, screen, die) cost a little of their own; the same in both trees.
+Then device/screen.py's Screen.push alone on the same spin with a flipped bit in one
+sample of 40 (the default spike_nt and scale), the loop's own cost taken off: after a
+collection, and with small live objects filling the heap to the firmware's free after boot.
 This checkout's fitsums.mpy for armv6m goes on the disk as deploy installs it (where built): a
 tree whose shared/fixedpoint.py uses its magnitude runs |h_c| in C (the table says which).
 """
@@ -62,7 +65,12 @@ def main(argv=None):
     window = 2
     rng = np.random.default_rng(1)
     sums = (spin[:400] * window + rng.integers(0, window, size=(400, 3))).tolist()
-    job = {"cal": cal.to_dict(), "window": window, "per_block": 10, "sums": sums}
+    # the screen's stream: the same spin with a flipped data bit (2**8 .. 2**19 of one code,
+    # either sign) in one sample of 40, at random: about 10 spikes, some under spike_nt
+    screen_sums = [list(s) for s in sums]
+    for i in range(5, 400, 40):
+        screen_sums[i][int(rng.integers(0, 3))] += int(rng.choice([-1, 1])) << int(rng.integers(8, 20))
+    job = {"cal": cal.to_dict(), "window": window, "per_block": 10, "sums": sums, "screen_sums": screen_sums}
     with tempfile.TemporaryDirectory(prefix="fluxcal-pico-survey-") as tmp:
         disk = os.path.join(tmp, "disk")
         _disk(disk, os.path.abspath(args.source), job)
@@ -79,6 +87,14 @@ def main(argv=None):
     print("|---|---|---|")
     for key, label in (("per_sample", "per decimated sample (Output.sample, block outputs included)"),
                        ("magnitude", "|h_c| alone"), ("block", "a block's output alone (correct, format the event)")):
+        print("| %s | %.1f | %s |" % (label, got[key], "{:,}".format(round(got[key] * MHZ))))
+    print()
+    print("| spike screen on the emulated Pico (Screen.push; %d of the 400 flipped-bit samples spikes; %s) "
+          "| emulated us | cycles |" % (got["screen_spikes"], args.source))
+    print("|---|---|---|")
+    for key, label in (("screen_clean", "a push, the spin, the heap emptied by a collection"),
+                       ("screen", "a push, the spin with a flipped bit in 1 sample of 40, the heap emptied"),
+                       ("screen_full", "the same, small live objects filling the heap to 85 KB free (as after boot)")):
         print("| %s | %.1f | %s |" % (label, got[key], "{:,}".format(round(got[key] * MHZ))))
     return 0
 

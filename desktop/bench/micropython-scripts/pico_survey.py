@@ -1,7 +1,9 @@
 # Runs on the emulated Pico (desktop/bench/pico_survey.py): device/survey.py's Output with the
 # stream corrected, on survey_stand_ins.py (a data event's members are made, not sent). Reads /disk/job.json {"cal": record, "window": n, "per_block": n, "sums": [[sx, sy,
-# sz], ...]}; prints one JSON line, emulated us: per decimated sample through Output.sample
-# (the block outputs included), per |h_c| alone, per block output alone; each after a
+# sz], ...], "screen_sums": the same with flipped bits}; prints one JSON line, emulated us: per
+# decimated sample through Output.sample (the block outputs included), per |h_c| alone, per
+# block output alone, per spike screen push (device/screen.py, on screen_sums: after a
+# collection, and again with the heap as full as the firmware's after boot); each after a
 # collection, the collections it causes included.
 import gc
 import json
@@ -10,6 +12,7 @@ import time
 
 sys.path.insert(0, "/disk")
 from config import defaults  # noqa: E402
+from screen import Screen  # noqa: E402
 from shared.calibration import Calibration  # noqa: E402
 from survey import Output  # noqa: E402
 from survey_stand_ins import Board, Die, Line, Passes  # noqa: E402
@@ -28,6 +31,7 @@ def main():
     o.use(Calibration.from_dict(job["cal"]))
     o.set_stream("corrected")
     sums = job["sums"]
+    screen_sums = job["screen_sums"]
     job = None
     gc.collect()
     t0 = time.ticks_us()
@@ -51,9 +55,60 @@ def main():
     for _ in range(100):
         o._output(blk)
     block = time.ticks_diff(time.ticks_us(), t0) / 100
+    path = "integers" if hasattr(o, "exact_w") else "floats"
+    blk = o = None
+    clean = _screen(cfg, sums)[0]
+    sums = None
+    screen, screen_full, spikes = _screen(cfg, screen_sums)
     print(json.dumps({"per_sample": per_sample, "magnitude": magnitude, "block": block,
-                      "path": "integers" if hasattr(o, "exact_w") else "floats",
+                      "screen": screen, "screen_full": screen_full, "screen_clean": clean, "screen_spikes": spikes,
+                      "path": path,
                       "magnitude_path": getattr(corr, "path", "python")}))
 
+
+class _Nothing:
+    """The loop's own cost: a method of the same arguments that does nothing."""
+
+    def push(self, x, y, z, t):
+        return False
+
+
+def _screen_loop(push, sums):
+    gc.collect()
+    t0 = time.ticks_us()
+    for s in sums:
+        push(s[0], s[1], s[2], 0)
+    return time.ticks_diff(time.ticks_us(), t0) / len(sums)
+
+
+def _ballast():
+    """Small live objects until FREE_B are left: chunks of 256 two-int tuples (16 B each)."""
+    out = []
+    gc.collect()
+    while gc.mem_free() > FREE_B + 6000:
+        chunk = [None] * 256
+        for j in range(256):
+            chunk[j] = (j, len(out))
+        out.append(chunk)
+    return out
+
+
+def _screen(cfg, sums):
+    """us per Screen.push, the loop's own cost (the stand-in's push) taken off: on a heap
+    emptied by a collection, then with small live objects first until FREE_B are free (the
+    firmware's heap after boot, docs/benchmarks.md), where every allocation's search for a
+    free block starts at the heap's bottom after a collection (py/gc.c)."""
+    scale = (cfg["scale_x"], cfg["scale_y"], cfg["scale_z"])
+    out = []
+    for full in (False, True):
+        ballast = _ballast() if full else None
+        loop = _screen_loop(_Nothing().push, sums)
+        sc = Screen(scale, cfg["window"], cfg["spike_nt"])
+        out.append(_screen_loop(sc.push, sums) - loop)
+        ballast = None
+    return out[0], out[1], sc.spikes
+
+
+FREE_B = 85056     # free after the firmware's boot on the emulated Pico (docs/benchmarks.md)
 
 main()
