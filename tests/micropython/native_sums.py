@@ -84,7 +84,9 @@ def cases(fit):
         if i % 9 == 0:
             f.remove(x, y, z)
         if i % 32 == 31:
-            out.append(f.low_sums())
+            low = f.low_sums()
+            if i == 319:
+                out.append(low)      # one of them kept: the Cortex-M3's heap holds no more
     out.append(f.sums())
     try:
         E().add(1.5, 2, 3)
