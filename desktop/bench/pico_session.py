@@ -18,6 +18,7 @@ import time
 
 SETTLE_S = 1.0        # board seconds after an operator's change before a window opens
 SAMPLE_S = 2.5        # board seconds between status samples (each costs the firmware ~1.5 M cycles)
+DRAIN_S = 5.0         # wall seconds at most spent reading the blocks from before the survey window
 
 
 class Session:
@@ -59,9 +60,10 @@ class Session:
         dev.ask("stream corrected", timeout=120)
         self.act("spin")
         self.wait(SETTLE_S)
-        # the blocks before the window: only those already here (the stream never pauses, so
-        # waiting for a quiet moment never ends on a board as fast as real time)
-        while dev.next_event(0.0) is not None:
+        # the blocks before the window, those still in the relay's pipe too: read until none came
+        # for 0.3 s, or for DRAIN_S wall seconds (a board as fast as real time never pauses)
+        end = time.monotonic() + DRAIN_S
+        while time.monotonic() < end and dev.next_event(0.3) is not None:
             pass
         survey = self.window(window_s)
         blocks = []
