@@ -136,6 +136,7 @@ class ADS1292Pair:
         """Power-up sequence (§10.1 Fig. 72, §8.3.11 Fig. 44), probe, configure, stream."""
         b = self.board
         b.set_start(0)          # conversions only when we say so (§8.5.2.7)
+        b.attach_drdy(None)     # and no handler reading frames among the register transactions (stop)
         b.set_reset(1)
         b.sleep_ms(_T_POR_MS)   # tPOR = 2**12 tMOD = 32 ms after supplies settle
         b.set_reset(0)          # RESET low >= 1 tMOD resets both chips
@@ -186,6 +187,10 @@ class ADS1292Pair:
     def stop(self):
         b = self.board
         b.set_start(0)
+        # no DRDY handler while the registers are talked to: a conversion finishing after START
+        # fell (§8.3.9) would have its frame read inside a register transaction, the handler's
+        # chip select raised under it (health.py attaches the handler again once started)
+        b.attach_drdy(None)
         self.streaming = False
         b.set_spi_rate(b.REG_BAUD)
         for chip in (0, 1):

@@ -204,3 +204,29 @@ def test_default_scale_is_the_reference_front_end_the_simulator_models():
     k = Scenario().nt_per_code()
     for i, axis in enumerate("xyz"):
         assert schema["scale_" + axis][0] == round(k[i], 10)
+
+
+def test_no_drdy_handler_while_the_registers_are_talked_to(tmp_path):
+    """A conversion that ends after START fell must not have its frame read inside a register
+    transaction (the handler's chip select would rise under it: a read-back of 0x00 on the
+    emulated Pico): stop() and begin() detach the handler, health.py attaches it once started."""
+    w, dev = boot(tmp_path)
+    board = dev.app.board
+    attached = []
+    for name in ("spi_write", "spi_write_readinto"):
+        orig = getattr(board, name)
+
+        def spy(*a, _orig=orig):
+            attached.append(board._handler is not None)
+            return _orig(*a)
+        setattr(board, name, spy)
+    new = dict(dev.app.cfg)
+    new["rate"] = 500                                  # a reconfigure: stop, registers, start
+    dev.app.apply_config(new)
+    dev.app.supervisor.start(new, reprobe=True)        # a re-probe: reset, registers, start
+    assert len(attached) > 20 and not any(attached), attached
+    frames = dev.app.acq.state[acquisition.FRAMES]
+    dev.run_until(w.time + 0.5)
+    assert board._handler is not None and dev.app.acq.state[acquisition.FRAMES] >= frames + 200   # 500 SPS
+    assert dev.app.supervisor.fault is None
+    dev.close()
