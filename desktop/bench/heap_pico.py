@@ -8,9 +8,9 @@ What: the same script as heap.py (micropython-scripts/firmware_heap.py: boot, SE
 on the loop-back board reading real frames from a file, the finish, SECONDS in survey with stream
 and log on) run from the REPL of the rp2 port's own firmware on the emulated RP2040
 (desktop/devicesim/pico_board.py), the firmware as .mpy from the Pico's mpy-cross with
-lib/fitsums.mpy for armv6m, as `fluxcal deploy` installs them. --frozen: the rp2-pico-frozen image
-(desktop/firmware/interpreters.py: device/manifest.py frozen in, its bytecode in flash), the
-flash holding only lib/fitsums.mpy besides the scripts and frames.
+the native modules for armv6m (lib/fitsums.mpy, lib/drdy.mpy), as `fluxcal deploy` installs them.
+--frozen: the rp2-pico-frozen image (desktop/firmware/interpreters.py: device/manifest.py frozen
+in, its bytecode in flash), the flash holding only the native modules besides the scripts and frames.
 How: the Pico's heap is fixed by its build (0 KB asks for its whole heap). A smaller one is
 that heap with a ballast bytearray allocated first, so that N KB are left, the REPL's own state
 included (as heap.py's figures include the unix interpreter's start-up); the figures below have
@@ -32,7 +32,7 @@ from desktop.bench.heap import SECONDS, print_table, row
 from desktop.devicesim.pico_board import PicoBoard
 from desktop.firmware.image import build_image
 from desktop.firmware.interpreters import pico_parts
-from desktop.firmware.natmod import natmod_path
+from desktop.firmware.natmod import MODULES, natmod_path
 
 _IMAGE = {False: ".mpy", True: "frozen"}     # the two firmware images, by `frozen`
 # the figures firmware_heap.py reports that hold the ballast too
@@ -40,21 +40,28 @@ _WITH_BALLAST = ("harness", "boot", "cal", "cal_peak", "survey", "survey_peak", 
 
 
 def _disk(folder, cross, prep, frozen=False):
-    """What the Pico's flash gets: lib/ (the firmware's .mpy unless frozen, fitsums.mpy), the scripts,
-    the frames (heap.py's, made in `prep`); -> (frame file's name, nT per code, whether fitsums.mpy went on)."""
+    """What the Pico's flash gets: lib/ (the firmware's .mpy unless frozen, the native modules), the
+    scripts, the frames (heap.py's, made in `prep`); -> (frame file's name, nT per code, whether every
+    native module went on)."""
     lib = os.path.join(folder, "lib")
     os.makedirs(lib, exist_ok=True)
     if not frozen:
         build_image(lib, runtime="sim", mpy_cross=cross)
-    native = natmod_path("armv6m")
-    if native is not None:
-        shutil.copyfile(native, os.path.join(lib, "fitsums.mpy"))
+    # every native module deploy installs (desktop/firmware/natmod.py), each where built: the
+    # heap holds their code as on a deployed board (drdy.mpy loads even where the loop-back board
+    # keeps the Python handler)
+    native = True
+    for module in MODULES:
+        path = natmod_path("armv6m", module)
+        native = native and path is not None
+        if path is not None:
+            shutil.copyfile(path, os.path.join(lib, module + ".mpy"))
     for name in ("firmware_heap.py", "loopboard.py"):
         subprocess.run([cross, "-o", os.path.join(folder, name[:-3] + ".mpy"), os.path.join(SCRIPTS, name)],
                        check=True)
     _lib, frames, scale = _prepare(prep, DEFAULT[0])
     shutil.copyfile(frames, os.path.join(folder, os.path.basename(frames)))
-    return os.path.basename(frames), scale, native is not None
+    return os.path.basename(frames), scale, native
 
 
 def ballast(kb):
@@ -160,7 +167,7 @@ def main(argv=None):
             disks[frozen] = (flash_with(disk, os.path.join(tmp, "template%d.flash" % frozen), frozen),) + got
         native = all(d[3] for d in disks.values())
         print("## Heap on the emulated Raspberry Pi Pico (firmware %s%s, default %d / %d / %d, loop-back"
-              " board)\n" % (" and ".join(_IMAGE[f] for f in images), " with fitsums.mpy for armv6m" if native else "",
+              " board)\n" % (" and ".join(_IMAGE[f] for f in images), " with %s for armv6m" % ", ".join(m + ".mpy" for m in MODULES) if native else "",
                               DEFAULT[0], DEFAULT[1], DEFAULT[2]))
         print("gc.mem_alloc() after gc.collect(), the whole heap less the ballast; one run each. Calibrating: after"
               " %d s of a hand rotation, just before finish; survey: after %d s more with stream corrected and"
