@@ -223,19 +223,23 @@ class Board(hal.Board):
         if self._poll is None:
             return None
         ipoll = self._poll.ipoll
+        for _ready in ipoll(0):
+            break
+        else:
+            return None         # nothing waiting: the usual pass
         rd = sys.stdin.buffer.readinto
         one = self._one
         buf = self._rbuf
         n = 0
         while n < SERIAL_CHUNK:
-            for _ready in ipoll(0):
-                break
-            else:
-                break           # nothing waiting
             if not rd(one, 1):
                 break           # end of input (a closed pty)
             buf[n] = one[0]
             n += 1
+            for _ready in ipoll(0):
+                break
+            else:
+                break           # nothing more waiting
         return buf[:n] if n else None
 
     def serial_write(self, data):

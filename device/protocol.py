@@ -68,16 +68,21 @@ class Protocol:
         self.send({"v": VERSION, "ok": False, "cmd": cmd, "error": code, "msg": msg})
 
     def event(self, name, fields, members=""):
-        """An event line; `members` JSON text appended as it is ('"f": 48000.123'): numbers
-        printed from integers, to digits a narrow float cannot hold (survey.py)."""
-        out = {"v": VERSION, "ev": name}
-        for k in fields:
-            out[k] = fields[k]
-        if members:
-            line = json.dumps(out)
-            self.board.serial_write((line[:-1] + ", " + members + "}\n").encode())
+        """An event line. fields: a dict, or its members already as JSON text ('"t": 5, "c":
+        [1.5, 2.0, 3.25]': survey.py's per-block events, printed from integers without a
+        dict or json.dumps, 10 a second); `members` JSON text appended as it is ('"f":
+        48000.123'): numbers printed from integers, to digits a narrow float cannot hold."""
+        if fields.__class__ is str:
+            head = '{"v": %d, "ev": "%s", %s' % (VERSION, name, fields)
         else:
-            self.send(out)
+            out = {"v": VERSION, "ev": name}
+            for k in fields:
+                out[k] = fields[k]
+            if not members:
+                self.send(out)
+                return
+            head = json.dumps(out)[:-1]
+        self.board.serial_write((head + (", " + members + "}\n" if members else "}\n")).encode())
 
     # ****** input ******
     def poll(self):

@@ -39,10 +39,12 @@ from the calibration's temperature.
 
 import os
 
+import json
+
 from protocol import json_number
 from screen import Screen
 from shared.delag import Delag, configured_tau_s, tau_us
-from shared.fixedpoint import FRACTION_BITS, ExactCorrection, milli_text
+from shared.fixedpoint import FRACTION_BITS, ExactCorrection
 from store import file_path, free_bytes
 
 # re-apply the temperature coefficients when the die moved this much: at 20 ppm/C and
@@ -52,6 +54,24 @@ _TEMP_STEP_C = 0.05
 # calibration's mean die reading): warn only this far outside their range
 _RANGE_MARGIN_C = 1.0
 _EXTRAPOLATE_C = 10.0     # and are applied at most this far outside it (held there beyond)
+
+
+_FIXED3 = "%s%d.%02d, %s%d.%02d, %s%d.%02d"      # three hundredths, each _sign()'s three parts
+_FIXED3M = "%s%d.%03d, %s%d.%03d, %s%d.%03d"     # three thousandths (milli-nT)
+
+
+def _sign(v, p):
+    """(sign, whole, fraction) of an int v of 1/p units, for a '%s%d.%0Nd' of it."""
+    if v < 0:
+        return ("-",) + divmod(-v, p)
+    return ("",) + divmod(v, p)
+
+
+def _hundredths(s, d):
+    """s / d in hundredths, rounded half up, in small ints (|s| < 2**30, d < 2**21): 200 s would
+    be a big integer on a 32-bit port, a heap allocation an operation."""
+    q = s // d
+    return 100 * q + (200 * (s - q * d) + d) // (2 * d)
 
 
 class Survey:
@@ -322,57 +342,64 @@ class Output:
 
     def _output(self, blk):
         sx, sy, sz, st, fs, n = blk
-        d = float(n * self.cfg["window"])
-        x = sx / d
-        y = sy / d
-        z = sz / d
-        tc = st / d
-        temp = self.adc.temperature_c(tc)
+        d = n * self.cfg["window"]
+        temp = self.adc.temperature_c(st / d)
         self.temp_c = temp
         if self.session is not None:
             self.session.add_temperature(temp)   # one per block: the die changes over seconds
         self._compensate(temp)
         cal = self.cal_now
-        tcal = None
-        warn = False
-        msg = None
-        if cal is not None and self.cal.tempco is not None:
-            # compensated: a warning only outside the range the coefficients were measured over
-            lo, hi = self.cal.tempco["range_c"]
-            warn = temp < lo - _RANGE_MARGIN_C or temp > hi + _RANGE_MARGIN_C
-            if warn:
-                msg = "temperature %.1f C outside the compensated %.1f..%.1f C" % (temp, lo, hi)
-        elif cal is not None:
-            tcal = cal.meta.get("temperature_c")
-            warn = tcal is not None and abs(temp - tcal) > self.cfg["temp_warn_c"]
-            if warn:
-                msg = "temperature %.1f C differs from calibration %.1f C" % (temp, tcal)
-        self.cal_temp_warn = warn
+        msg = self._temperature_warning(temp)
         if not self._want_f:
             return   # nothing goes out: no stream, no log
         t = self.board.ticks_ms()
-        # h_c and |h_c| in milli-nT, integers: printed digit for digit as CPython's floats
+        # the block's mean codes in hundredths from the integer sums: no float to box and print
+        c = _FIXED3 % (_sign(_hundredths(sx, d), 100) + _sign(_hundredths(sy, d), 100) + _sign(_hundredths(sz, d), 100))
+        temp_t = "%.2f" % temp if temp == temp else "null"
+        if self.stream == "raw":
+            self.proto.event("raw", '"t": %d, "c": [%s], "temp": %s' % (t, c, temp_t))
+            if self.recorder is None and (self.log is None or self.session is not None):
+                return
+        # h_c and |h_c| in milli-nT, integers: printed to the last digit a narrow float cannot hold
         ex = self.exact_blk
-        if ex is not None and ex.divisor != n * self.cfg["window"]:
-            ex = self.exact_blk = ExactCorrection(self.cal, n * self.cfg["window"], ex.tau)
+        if ex is not None and ex.divisor != d:
+            ex = self.exact_blk = ExactCorrection(self.cal, d, ex.tau)
         if ex is not None:
             b = ex.correct(sx, sy, sz)
         else:
             k = self.scale
-            b = (round(x * k[0] * 1000), round(y * k[1] * 1000), round(z * k[2] * 1000))
+            b = (round(sx / d * k[0] * 1000), round(sy / d * k[1] * 1000), round(sz / d * k[2] * 1000))
         f = (2 * fs + (n << FRACTION_BITS)) // (2 * n << FRACTION_BITS)   # the mean |h_c|, milli-nT (rounded)
-        r = json_number
-        txt = milli_text
         if self.stream == "corrected":
-            self.proto.event("data", {"t": t, "temp": r(temp, 2), "c": [r(x, 2), r(y, 2), r(z, 2)],
-                                      "cal": cal is not None, "warn": msg},
-                             '"b": [%s, %s, %s], "f": %s' % (txt(b[0]), txt(b[1]), txt(b[2]), txt(f)))
-        elif self.stream == "raw":
-            self.proto.event("raw", {"t": t, "c": [r(x, 2), r(y, 2), r(z, 2)], "temp": r(temp, 2)})
+            # the event's members as JSON text (protocol.Protocol.event), each part in one
+            # format: a call or a format per number costs ~20 k cycles on an RP2040
+            self.proto.event("data", '"t": %d, "temp": %s, "c": [%s], "cal": %s, "warn": %s' % (
+                t, temp_t, c, "false" if cal is None else "true", "null" if msg is None else json.dumps(msg)),
+                '"b": [%s], "f": %d.%03d' % ((_FIXED3M % (_sign(b[0], 1000) + _sign(b[1], 1000) + _sign(b[2], 1000)),)
+                                             + divmod(f, 1000)))
         if self.recorder is not None:
             self.recorder.block(t, f)
         if self.log is not None and self.session is None:
-            self.log.write("%d,%s,%s,%s,%s,%.2f\n" % (t, txt(b[0], 1), txt(b[1], 1), txt(b[2], 1), txt(f, 1), temp))
+            self.log.write("%d,%s,%d.%03d,%.2f\n" % ((t, (_FIXED3M % (_sign(b[0], 1000) + _sign(b[1], 1000)
+                                                                      + _sign(b[2], 1000))).replace(", ", ","))
+                                                      + divmod(f, 1000) + (temp,)))
+
+    def _temperature_warning(self, temp):
+        """Whether the die's temperature makes the calibration in force doubtful (cal_temp_warn)
+        and the warning's text, or None."""
+        cal = self.cal_now
+        msg = None
+        if cal is not None and self.cal.tempco is not None:
+            # compensated: a warning only outside the range the coefficients were measured over
+            lo, hi = self.cal.tempco["range_c"]
+            if temp < lo - _RANGE_MARGIN_C or temp > hi + _RANGE_MARGIN_C:
+                msg = "temperature %.1f C outside the compensated %.1f..%.1f C" % (temp, lo, hi)
+        elif cal is not None:
+            tcal = cal.meta.get("temperature_c")
+            if tcal is not None and abs(temp - tcal) > self.cfg["temp_warn_c"]:
+                msg = "temperature %.1f C differs from calibration %.1f C" % (temp, tcal)
+        self.cal_temp_warn = msg is not None
+        return msg
 
     def status(self):
         """Its part of `status`: the stream, the die temperature, the screen's counts, the log."""

@@ -1,12 +1,10 @@
 """The survey's correction in integers: h_c = M (s / n - b) and |h_c|, the same digits on
 every float width (double, float32, the 30-bit floats of CircuitPython).
 
-    from shared.fixedpoint import ExactCorrection, milli_text
+    from shared.fixedpoint import ExactCorrection
     ex = ExactCorrection(cal, 2)          # inputs are sums of 2 codes (the boxcar's window)
     f = ex.magnitude(sx, sy, sz)          # |h_c| in 1/256 milli-nT (an int)
     mx, my, mz = ex.correct(sx, sy, sz)   # h_c in milli-nT (ints, rounded)
-    milli_text(48000120)                  # '48000.12', as CPython's json prints round(x, 3)
-    milli_text(48000120, True)            # '48000.120', as '%.3f' prints it
 
 Why: a 30-bit float holds 22 bits, so 48,000 nT to 0.016 nT; even stored in it, M and b move
 |h_c| by ~0.01 nT. Here M and b enter as the exact binary values of the record
@@ -188,17 +186,6 @@ def isqrt(q):
     while y * y > q:                 # one or two steps down after a float's guess
         y -= 1
     return y
-
-
-def milli_text(v, fixed=False):
-    """An int of milli-nT as CPython's json prints round(x, 3) ('48000.12', '-3.5', '0.0'), or
-    with `fixed` as '%.3f' does ('48000.120')."""
-    a = -v if v < 0 else v
-    s = "%s%d.%03d" % ("-" if v < 0 else "", a // 1000, a % 1000)
-    if fixed:
-        return s
-    s = s.rstrip("0")
-    return s + "0" if s[-1] == "." else s
 
 
 def check_exact(ex, matrix, offset):

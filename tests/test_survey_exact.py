@@ -28,7 +28,7 @@ import pytest
 from desktop.methods import fit_array
 from desktop.sim.instrument import realistic_instrument
 from shared.calibration import Calibration
-from shared.fixedpoint import ExactCorrection, float_pair, isqrt, milli_text
+from shared.fixedpoint import ExactCorrection, float_pair, isqrt
 from desktop.devicesim.runners import heap_for
 from tests.interpreters import INTERPRETERS, need
 
@@ -172,15 +172,6 @@ def test_isqrt_is_the_floor_of_the_root():
     for q in [0, 1, 2, 3, 4, 15, 16, 17, (1 << 72) - 1, 1 << 72] + [int(v) << 40 for v in rng.integers(1, 1 << 40, 50)]:
         r = isqrt(q)
         assert r * r <= q < (r + 1) * (r + 1)
-
-
-def test_milli_text_prints_as_cpythons_json_and_percent_f():
-    rng = np.random.default_rng(5)
-    for v in [0, 1, -1, 999, 1000, -1000, 48000000, 48000120, -123456789] + rng.integers(-10 ** 9, 10 ** 9, 200).tolist():
-        v = int(v)
-        assert float(milli_text(v)) == v / 1000
-        assert milli_text(v) == json.dumps(round(v / 1000, 3)) or v == 0
-        assert milli_text(v, True) == "%.3f" % (v / 1000)
 
 
 def test_a_record_without_exact_numbers_still_loads_and_corrects():
