@@ -42,9 +42,25 @@ of its 13 bits could round apart on a 30-bit float).
 Clipped: a boxcar of full-scale codes ([DS 8.3.8] saturates at 0x7FFFFF / 0x800000)
 means the sensor or the PGA gain exceeds the ADC's range; the sample is not
 the field (session.py names it `clipped` when it happens during a calibration).
+
+Native: where deploy installed screenc.mpy (device/native/screenc.c; MicroPython boards of
+a matching architecture), a Screen's push is in C for the common case (a sample that is not
+clipped, with two held neighbours, judged good without the stand-out: no allocation); it
+hands any other push, and any whose numbers do not fit its words, to Screen.push, the
+reference, before changing anything. Elsewhere (CircuitPython, the desktop) Screen.push runs
+every sample. The state is the same attributes either way, so verdicts, counters and outputs
+are the same integers (tests/test_native_screen.py); `.path` says which runs ("native" or
+"python": status).
 """
 
 from shared.fixedpoint import float_pair
+
+try:
+    # the common path of push in C (device/native/screenc.c), where deploy installed the board's
+    # build (MicroPython; ValueError: a .mpy of another arch or version)
+    from screenc import Push as _NativePush
+except (ImportError, ValueError):
+    _NativePush = None
 
 CLIP_CODES = 8323072   # 2**23 - 2**16: within 0.8 % of full scale
 TYPICAL = 4            # times the running mean bend a sample may stand out by
@@ -83,7 +99,7 @@ def _out(a, e, m, sh):
 
 
 class Screen:
-    def __init__(self, scale, window, spike_nt):
+    def __init__(self, scale, window, spike_nt, native=True):
         # per axis: nT per sum unit as (m, sh), the screen's units (s * m) >> sh
         mx, sx = multiplier(scale[0], window)
         my, sy = multiplier(scale[1], window)
@@ -96,21 +112,34 @@ class Screen:
         self.spikes = 0      # samples rejected as spikes
         self.clipped = 0     # samples rejected as clipped
         self.clip_axis = None   # the axis of the last one (0, 1, 2)
-        # the held samples as c - p and c: ax, ay, az, cx, cy, cz, ct (a list: an index costs
-        # about what an attribute does on MicroPython, and one unpacking reads them all)
-        self._st = [0, 0, 0, 0, 0, 0, 0]
+        self.x = self.y = self.z = self.t = None   # the last good sample (there before a push
+        # makes one: a store then allocates nothing)
+        # The state, one list (an index costs about what an attribute does on MicroPython, one
+        # unpacking reads it all, and the native push finds it with one look-up):
+        #   0-6  the held samples as c - p and c: ax, ay, az, cx, cy, cz, ct
+        #   7    n: samples held, 0, 1 (c) or 2 (p, c)
+        #   8    thr: spike_nt + allow, units; allow = TYPICAL * typical, the running mean of 2 x the bend
+        #   9    pending: the last accepted sample's 2 x bend, not yet learnt (< 0: none)
+        self._st = [0, 0, 0, 0, 0, 0, 0, 0, 0, 0]
         self.reset()
+        # push in C where screenc.mpy loads (native=False: the class's push, the reference, as
+        # the tests compare them): an instance attribute, found before the method, holding
+        # this screen and Screen.push for what it hands back
+        self.path = "python"
+        if native and _NativePush is not None:
+            self.push = _NativePush(self, Screen.push)
+            self.path = "native"
 
     def reset(self):
         """Forget the held samples (a gap: the next one has no neighbour)."""
-        self._n = 0          # samples held: 0, 1 (c) or 2 (p, c)
-        # spike_nt + allow, units; allow = TYPICAL * typical, the running mean of 2 x the bend
-        self._thr = self._spike
-        self._pending = -1   # the last accepted sample's 2 x bend, not yet learnt (< 0: none)
+        st = self._st
+        st[7] = 0
+        st[8] = self._spike
+        st[9] = -1
 
     def allowance(self):
         """TYPICAL * typical, in units of 2**-UNIT_BITS nT (an int)."""
-        return self._thr - self._spike
+        return self._st[8] - self._spike
 
     def push(self, x, y, z, t):
         """Take the next sample; True when the one before it is good (it is then in .x .y .z .t)."""
@@ -121,8 +150,7 @@ class Screen:
             self.reset()     # a clipped sample is no neighbour either
             return False
         st = self._st
-        n = self._n
-        if n < 2:
+        if st[7] < 2:
             st[0] = x - st[3]   # c - p once the next is c
             st[1] = y - st[4]
             st[2] = z - st[5]
@@ -130,9 +158,9 @@ class Screen:
             st[4] = y
             st[5] = z
             st[6] = t
-            self._n = n + 1
+            st[7] += 1
             return False
-        ax, ay, az, cx, cy, cz, ct = st
+        ax, ay, az, cx, cy, cz, ct, _, thr, pend = st
         # the bend of c, |2c - p - n| = |(c - p) - (n - c)| per axis in units, the largest
         ex = x - cx
         e = ax - ex
@@ -151,9 +179,9 @@ class Screen:
         # one, min(|c - p|, |c - n|) <= |2c - p - n| / 2: within spike_nt + allow by half
         # the largest bend, it stands out by no more (exact: floors keep the order). Else
         # (a spike, a sharp bend: a few a second) the stand-out itself, then the bend
-        if e >> 1 > self._thr and self._stands_out(x, y, z):
+        if e >> 1 > thr and self._stands_out(x, y, z):
             self.spikes += 1
-            self._pending = -1     # its bend involved this spike
+            st[9] = -1     # its bend involved this spike
             # c is dropped; p stays p (the next judgement spans two periods, a little looser)
             st[0] = ax + ex
             st[1] = ay + ey
@@ -169,11 +197,9 @@ class Screen:
         # allow spikes. The mean's step (p - allow) / 16 is rounded to the nearest unit
         # (halves up): +-0.5 unit a sample, at most 8 units (2**-9 nT) under the weight 15/16.
         # With allow = thr - sp: allow += (p - allow + 8) >> 4, on thr itself
-        a = self._pending
-        if a >= 0:
-            c = self._thr
-            self._thr = c + ((a + sp - c + 8) >> 4)
-        self._pending = e + e
+        if pend >= 0:
+            st[8] = thr + ((pend + sp - thr + 8) >> 4)
+        st[9] = e + e
         self.x = cx
         self.y = cy
         self.z = cz
@@ -191,7 +217,7 @@ class Screen:
         """True when c (held) is a spike: it stands out (units, largest axis) past spike_nt +
         max(allow, the bend |v|^2 / (2 |h|)), v = n - p (two periods) and h = c."""
         _, _, _, mx, sx, my, sy, mz, sz = self._k
-        ax, ay, az, cx, cy, cz, _ = self._st
+        ax, ay, az, cx, cy, cz, _, _, thr, _ = self._st
         d = _out(ax, cx - x, mx, sx)
         e = _out(ay, cy - y, my, sy)
         if e > d:
@@ -199,7 +225,7 @@ class Screen:
         e = _out(az, cz - z, mz, sz)
         if e > d:
             d = e
-        if d <= self._thr:
+        if d <= thr:
             return False
         # past the bend too: d - spike_nt > |v|^2 / (2 |h|). Exact: each axis in units of
         # 2**-g (its multiplier shifted to the common g bits), then, both sides positive,
@@ -221,3 +247,4 @@ class Screen:
         v2 = vx * vx + vy * vy + vz * vz
         w = (d - self._spike) << (g + 1)
         return w * w * h2 > v2 * v2
+

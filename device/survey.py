@@ -405,6 +405,8 @@ class Output:
         """Its part of `status`: the stream, the die temperature, the screen's counts, the log."""
         out = {"stream": self.stream, "temp": json_number(self.temp_c, 2), "temp_warn": self.cal_temp_warn,
                "spikes": self.screen.spikes, "clipped": self.screen.clipped,
+               # the spike screen's push: "native" (screenc.mpy) or "python"
+               "screen": self.screen.path,
                # the taus (us per axis) the samples are de-lagged with, None: not de-lagged
                "delag_us": self.delag.taus_us if self._delag_on else None,
                # |h_c| of the calibration in force: "native" (fitsums.mpy) or "python"; None: none

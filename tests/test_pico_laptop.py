@@ -150,9 +150,10 @@ def test_the_laptop_commands_a_power_cycle_and_the_watchdog_on_the_emulated_pico
         time.sleep(1.0)
         st = json.loads(ok(fluxcal("status", "--json", "--port", port, *SLOW)))["status"]
         assert st["calibrated"] is True and st["uptime_ms"] < 60000, st
-        # deploy put the armv6m fitsums.mpy and drdy.mpy on: the fit's sums, the survey's |h_c| and the
-        # DRDY handler (a hard IRQ calling the HAL's Pins and SPI read) run in C
-        assert (st["sums"], st["magnitude"], st["drdy"]) == ("native", "native", "native"), st
+        # deploy put the armv6m fitsums.mpy, drdy.mpy and screenc.mpy on: the fit's sums, the survey's
+        # |h_c|, the DRDY handler (a hard IRQ calling the HAL's Pins and SPI read) and the spike
+        # screen's push run in C
+        assert (st["sums"], st["magnitude"], st["drdy"], st["screen"]) == ("native",) * 4, st
         ok(fluxcal("pull-cal", "-o", tmp_path / "after.json", "--port", port, *SLOW))
         before, after = (json.loads((tmp_path / n).read_text()) for n in ("device.json", "after.json"))
         assert before["matrix"] == after["matrix"] and before["offset"] == after["offset"]

@@ -12,8 +12,10 @@ stand-ins (serial line, screen, die) cost a little of their own; the same in bot
 Then device/screen.py's Screen.push alone on the same spin with a flipped bit in one
 sample of 40 (the default spike_nt and scale), the loop's own cost taken off: after a
 collection, and with small live objects filling the heap to the firmware's free after boot.
-This checkout's fitsums.mpy for armv6m goes on the disk as deploy installs it (where built): a
-tree whose shared/fixedpoint.py uses its magnitude runs |h_c| in C (the table says which).
+This checkout's native modules for armv6m go on the disk as deploy installs them (where built): a
+tree whose shared/fixedpoint.py uses fitsums.magnitude runs |h_c| in C, one whose screen.py uses
+screenc.mpy runs the screen's push in C and is timed with its pure-Python push too (the tables
+say which).
 """
 
 import argparse
@@ -29,7 +31,7 @@ import numpy as np
 from desktop.devicesim.pico_board import PicoBoard
 from desktop.firmware.files import REPO
 from desktop.firmware.interpreters import pico_parts
-from desktop.firmware.natmod import natmod_path
+from desktop.firmware.natmod import MODULES, natmod_path
 from desktop.methods import fit_array
 from desktop.sim.instrument import realistic_instrument
 
@@ -51,9 +53,10 @@ def _disk(folder, source, job):
         subprocess.run([cross, "-o", os.path.join(folder, rel[:-3] + ".mpy"), src], check=True)
     with open(os.path.join(folder, "job.json"), "w") as fh:
         json.dump(job, fh)
-    native = natmod_path("armv6m")
-    if native:
-        shutil.copyfile(native, os.path.join(folder, "fitsums.mpy"))
+    for module in MODULES:          # as deploy installs them, where built
+        native = natmod_path("armv6m", module)
+        if native:
+            shutil.copyfile(native, os.path.join(folder, module + ".mpy"))
 
 
 def main(argv=None):
@@ -89,13 +92,16 @@ def main(argv=None):
                        ("magnitude", "|h_c| alone"), ("block", "a block's output alone (correct, format the event)")):
         print("| %s | %.1f | %s |" % (label, got[key], "{:,}".format(round(got[key] * MHZ))))
     print()
-    print("| spike screen on the emulated Pico (Screen.push; %d of the 400 flipped-bit samples spikes; %s) "
-          "| emulated us | cycles |" % (got["screen_spikes"], args.source))
-    print("|---|---|---|")
+    py = "py_screen" in got
+    print("| spike screen on the emulated Pico (Screen.push, %s; %d of the 400 flipped-bit samples spikes; %s) "
+          "| emulated us | cycles |%s" % (got.get("screen_path", "python"), got["screen_spikes"], args.source,
+                                        " the Python push: emulated us, cycles |" if py else ""))
+    print("|---|---|---|%s" % ("---|" if py else ""))
     for key, label in (("screen_clean", "a push, the spin, the heap emptied by a collection"),
                        ("screen", "a push, the spin with a flipped bit in 1 sample of 40, the heap emptied"),
                        ("screen_full", "the same, small live objects filling the heap to 85 KB free (as after boot)")):
-        print("| %s | %.1f | %s |" % (label, got[key], "{:,}".format(round(got[key] * MHZ))))
+        more = " %.1f, %s |" % (got["py_" + key], "{:,}".format(round(got["py_" + key] * MHZ))) if py else ""
+        print("| %s | %.1f | %s |%s" % (label, got[key], "{:,}".format(round(got[key] * MHZ)), more))
     return 0
 
 

@@ -3,8 +3,8 @@
 # sz], ...], "screen_sums": the same with flipped bits}; prints one JSON line, emulated us: per
 # decimated sample through Output.sample (the block outputs included), per |h_c| alone, per
 # block output alone, per spike screen push (device/screen.py, on screen_sums: after a
-# collection, and again with the heap as full as the firmware's after boot); each after a
-# collection, the collections it causes included.
+# collection, and again with the heap as full as the firmware's after boot; where its push is
+# native, the pure-Python push too); each after a collection, the collections it causes included.
 import gc
 import json
 import sys
@@ -57,13 +57,16 @@ def main():
     block = time.ticks_diff(time.ticks_us(), t0) / 100
     path = "integers" if hasattr(o, "exact_w") else "floats"
     blk = o = None
-    clean = _screen(cfg, sums)[0]
+    clean, _, _, screen_path = _screen(cfg, sums)
+    out = {"screen_clean": clean, "screen_path": screen_path}
+    if screen_path == "native":     # the pure-Python push beside it (CircuitPython's)
+        out["py_screen_clean"] = _screen(cfg, sums, False)[0]
+        out["py_screen"], out["py_screen_full"] = _screen(cfg, screen_sums, False)[:2]
     sums = None
-    screen, screen_full, spikes = _screen(cfg, screen_sums)
-    print(json.dumps({"per_sample": per_sample, "magnitude": magnitude, "block": block,
-                      "screen": screen, "screen_full": screen_full, "screen_clean": clean, "screen_spikes": spikes,
-                      "path": path,
-                      "magnitude_path": getattr(corr, "path", "python")}))
+    out["screen"], out["screen_full"], out["screen_spikes"] = _screen(cfg, screen_sums)[:3]
+    out.update({"per_sample": per_sample, "magnitude": magnitude, "block": block, "path": path,
+                "magnitude_path": getattr(corr, "path", "python")})
+    print(json.dumps(out))
 
 
 class _Nothing:
@@ -93,20 +96,24 @@ def _ballast():
     return out
 
 
-def _screen(cfg, sums):
+def _screen(cfg, sums, native=True):
     """us per Screen.push, the loop's own cost (the stand-in's push) taken off: on a heap
     emptied by a collection, then with small live objects first until FREE_B are free (the
     firmware's heap after boot, docs/benchmarks.md), where every allocation's search for a
-    free block starts at the heap's bottom after a collection (py/gc.c)."""
+    free block starts at the heap's bottom after a collection (py/gc.c). The screen's push as
+    the firmware gets it (in C where screenc.mpy loads: its path), or native=False: the Python."""
     scale = (cfg["scale_x"], cfg["scale_y"], cfg["scale_z"])
     out = []
     for full in (False, True):
         ballast = _ballast() if full else None
         loop = _screen_loop(_Nothing().push, sums)
-        sc = Screen(scale, cfg["window"], cfg["spike_nt"])
+        if native:
+            sc = Screen(scale, cfg["window"], cfg["spike_nt"])
+        else:
+            sc = Screen(scale, cfg["window"], cfg["spike_nt"], native=False)
         out.append(_screen_loop(sc.push, sums) - loop)
         ballast = None
-    return out[0], out[1], sc.spikes
+    return out[0], out[1], sc.spikes, getattr(sc, "path", "python")
 
 
 FREE_B = 85056     # free after the firmware's boot on the emulated Pico (docs/benchmarks.md)
