@@ -68,12 +68,21 @@ def _nested(f, part, _parent):
     return w
 
 
+def _screen(init):
+    """Screen.__init__ that wraps the new screen's push in the instance, where a native push
+    (screenc.mpy) lives: what it hands back to the class's push is charged to it too."""
+    def w(self, scale, window, spike_nt, native=True):
+        init(self, scale, window, spike_nt, native)
+        self.push = _w4(self.push, SCREEN, OUTPUT)
+    return w
+
+
 def _wrap(cls, name, wrapper, part, parent=None):
     setattr(cls, name, wrapper(getattr(cls, name), part, parent))
 
 
 _wrap(survey.Output, "sample", _w5, OUTPUT, REST)          # per sample: |h_c|, the block, the data event
-_wrap(screen.Screen, "push", _w5, SCREEN, OUTPUT)          # ... first the spike screen,
+screen.Screen.__init__ = _screen(screen.Screen.__init__)    # ... first the spike screen,
 _wrap(gates.Gates, "sample", _w4, GATES, OUTPUT)           # ... then a session's gates,
 _wrap(fit.EllipsoidFit, "add", _w4, ADD, GATES)            # ... which add() what they accept,
 _wrap(coverage.Coverage, "cell", _w4, CELL, GATES)         # ... place it in its coverage cell
