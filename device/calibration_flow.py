@@ -152,9 +152,13 @@ class CalibrationFlow:
         from session import Session
         from shared.fit import SUMS_PATH
         self._sums_path = SUMS_PATH
-        self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind, hold)
+        self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind, hold,
+                               self.board.polls_drdy)
         self.output.session = self.session
         self.output.respond()   # its samples de-lagged with the session's response
+        # from its own conversions only: the screen's and the de-lag's held samples let go (two
+        # sessions on the same conversions agree to the bit: tests/micropython/two_sessions.py)
+        self.output.gap()
         self.last_progress = self.board.ticks_ms()
         self.led.set(ledp.COLLECTING)
         self.proto.event("cal", self.session.progress())

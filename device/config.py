@@ -12,7 +12,8 @@ device. docs/firmware.md lists the keys and why each default was chosen.
 
 from shared.codes import MAX_PREDICTED_NT   # fluxcal fit refuses by the same default
 
-# key: (default, kind, lo, hi). kind: "int", "float", "bool", "pin", "scale", "opt_float", "choice:a|b"
+# key: (default, kind, lo, hi). kind: "int", "float", "bool", "bool_auto" (true, false or "auto"),
+# "pin", "scale", "opt_float", "choice:a|b"
 SCHEMA = {
     # wiring (pin names are HAL specific: GPIO numbers on MicroPython, board names on CircuitPython)
     "spi_id": (0, "int", 0, 3),
@@ -66,9 +67,10 @@ SCHEMA = {
     # what is left: the configured tau's relative uncertainty response_tol (gates.py gate_dps)
     "delag": (True, "bool", 0, 0),
     # de-lag by the whole response, the ADC's sinc3 and the boxcar included, and so every sensor,
-    # a fast one too (shared/delag.py response_tau_s): off, as after a gap the de-lag waits for
-    # four samples, which a polled DRDY (CircuitPython) with its frequent gaps cannot spare
-    "delag_adc": (False, "bool", 0, 0),
+    # a fast one too (shared/delag.py response_tau_s). "auto": where the board's DRDY is an
+    # interrupt (hal.py polls_drdy False); not where it is polled (CircuitPython), as after a gap
+    # the de-lag waits for four samples, which a polled DRDY with its frequent gaps cannot spare
+    "delag_adc": ("auto", "bool_auto", 0, 0),
     "response_tol": (0.05, "float", 0.0, 1.0),
     # de-lagged: estimate tau at the finish (shared/tausums.py; four more sums per accepted
     # sample, a few more solves at the end) and use it, with its own uncertainty
@@ -110,10 +112,10 @@ def check(key, value):
     if key not in SCHEMA:
         raise ValueError("unknown config key %r" % (key,))
     default, kind, lo, hi = SCHEMA[key]
-    if kind == "bool":
-        if value is True or value is False:
+    if kind == "bool" or kind == "bool_auto":
+        if value is True or value is False or (kind == "bool_auto" and value == "auto"):
             return value
-        raise ValueError("%s must be true or false" % key)
+        raise ValueError("%s must be true or false%s" % (key, " or auto" if kind == "bool_auto" else ""))
     if kind == "pin":
         if isinstance(value, (int, str)) and not isinstance(value, bool):
             return value

@@ -56,7 +56,7 @@ _G_SHIFT = 16        # rate gate: d^2 > (r^2 >> 16) * round(angle^2 * 2**16)
 _MAX_STRIDE = 64     # rate gate baseline, samples (0.64 s at 100 samples/s)
 
 
-def gate_dps(cfg):
+def gate_dps(cfg, polled=False):
     """The rotation-rate gate: gate_rate_dps, or lower where the sensor's lag, or what
     de-lagging leaves of it, would shrink |B| by more than lag_tol_nt.
 
@@ -68,7 +68,7 @@ def gate_dps(cfg):
     bounded here: axes whose taus differ by a fraction s (which a common tau leaves) err
     first order in the rate, up to B w s tau / 2, and a response that is not first
     order leaves a term in w^2; the calibration's residuals show both (acceptance.py)."""
-    tau = configured_tau_s(cfg)
+    tau = configured_tau_s(cfg, polled)
     if tau is not None:
         tau *= cfg["response_tol"]
     else:
@@ -91,7 +91,7 @@ def zeros(n):
 
 
 class Gates:
-    def __init__(self, cfg, fit, cov, window, period_ms, centre):
+    def __init__(self, cfg, fit, cov, window, period_ms, centre, polled=False):
         self.fit = fit
         self.cov = cov
         # shift that brings a full-scale sum (window * 2**23 codes) below 2**14
@@ -125,7 +125,7 @@ class Gates:
         self.hist_e = None
         self.batches = ResidualBatches(fit, centre)   # the residuals' correlation over the session
         self.back = int(1000 / period_ms) + 1   # samples in one second (backoff)
-        self.gate_dps = gate_dps(cfg)
+        self.gate_dps = gate_dps(cfg, polled)
         g = self.gate_dps * math.pi / 180.0 * period_ms / 1000.0
         # compare with the sample `stride` back, so the allowed turn is >= 1/64 rad: a few
         # steps of the 14-bit vectors (a slow sensor's gate is ~1e-3 rad per sample)

@@ -20,6 +20,10 @@ class Board:
     # scheduled): the main loop then sleeps between passes (app.App.wait). False where idle()
     # itself services DRDY (a polling HAL, the simulator's link).
     sleeps_with_irq = False
+    # True where the firmware polls DRDY (no user interrupts: CircuitPython; the simulator's
+    # polled board): conversions pass unseen while the main loop is busy, a gap every few
+    # samples, so the de-lag by the ADC's response (config delag_adc "auto") stays off there.
+    polls_drdy = False
 
     # What a native DRDY handler (device/native/drdy.c) calls to read a frame as spi_readinto
     # does: a list [cs0, cs1, readinto] of callables that allocate nothing (cs(0), cs(1): the

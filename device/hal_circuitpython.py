@@ -69,6 +69,8 @@ def _pin(name):
 
 
 class Board(hal.Board):
+    polls_drdy = True   # idle() polls the pin: conversions pass unseen while the main loop works
+
     def __init__(self, cfg, root="/"):
         self.root = root if root != "/" else ""
         self.name = "circuitpython-" + sys.platform

@@ -42,7 +42,7 @@ CLIP_FRACTION = 200   # more than 1 in 200 samples clipped refuses the calibrati
 
 
 class Session:
-    def __init__(self, cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto", hold=False):
+    def __init__(self, cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto", hold=False, polled=False):
         self.cfg = cfg
         # hold: finished by the operator (finish-cal, the button) or at max_cal_s, never at `ready`
         self.hold = hold
@@ -55,10 +55,11 @@ class Session:
         self.fit = EllipsoidFit()
         self.cov = Coverage(cfg["cells"], cfg["cell_cap"])
         self.c = [int(v) for v in self.prior.offset] if self.prior is not None else [0, 0, 0]
-        self.gates = g = Gates(cfg, self.fit, self.cov, window, period_ms, self.c)
+        # polled: the board polls DRDY (hal.py polls_drdy), which delag_adc "auto" reads as off
+        self.gates = g = Gates(cfg, self.fit, self.cov, window, period_ms, self.c, polled)
         # the response the samples are de-lagged with (survey.py applies it), per axis in whole
         # us, and the record the calibration carries it in; None: not de-lagged (gates.py)
-        tau = configured_tau_s(cfg)
+        tau = configured_tau_s(cfg, polled)
         self.taus_us = None if tau is None else [tau_us(tau)] * 3
         self.response = None if tau is None else {
             "model": "first-order", "tau_s": [t / 1e6 for t in self.taus_us], "source": "given",

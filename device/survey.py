@@ -265,7 +265,7 @@ class Output:
             r = self.cal.response
             taus = None if r is None else [tau_us(t) for t in r["tau_s"]]
         else:
-            tau = configured_tau_s(c)
+            tau = configured_tau_s(c, self.board.polls_drdy)
             taus = None if tau is None else [tau_us(tau)] * 3
         self.delag.set_taus(taus, c["rate"], c["decim"], None if s is None else s.steps_us)
         self._delag_on = self.delag.taus_us is not None

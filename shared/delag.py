@@ -18,7 +18,9 @@ for a 1 kHz sensor at the defaults, whose 0.16 ms alone misses 0.27 nT of |B| at
 error that follows the hand's pace (the Mag649's full-sphere error 0.044 nT at 1 rev/s,
 0.012 nT de-lagged so, python -m desktop.bench.delag); `fluxcal fit --lag auto` finds
 0.524 ms on the conversions themselves (the sinc3 and the sensor: sqrt(0.5^2 + 0.16^2)).
-Without it (the default) only a slow sensor is de-lagged, by its own tau.
+`delag_adc` is "auto" by default: on where the board's DRDY is an interrupt, off where it is
+polled (CircuitPython), whose gaps each cost four samples; off, only a slow sensor is
+de-lagged, by its own tau.
 
 Where the derivative is taken: at the decimated rate f_s = rate / decim, by the five-point
 central difference (Richardson's combination of the spans T and 2 T, T = 1 / f_s),
@@ -86,16 +88,24 @@ def response_tau_s(cfg):
     return math.sqrt(sensor_tau_s(cfg) ** 2 + 0.25 / (r * r) + (w * w - 1) / (12.0 * r * r))
 
 
-def configured_tau_s(cfg):
+def configured_tau_s(cfg, polled=False):
     """The tau (s) the firmware config de-lags the samples with, or None: with `delag_adc` the
     whole response's (response_tau_s) whenever `delag` is on; else the sensor's own where its
     lag would bring the rate gate under gate_rate_dps (device/gates.py): a sensor fast enough
-    for the gate is left as it is."""
+    for the gate is left as it is. polled: the board polls DRDY (device/hal.py polls_drdy),
+    which `delag_adc` "auto" (the default) reads as off."""
     if not cfg["delag"]:
         return None
-    if cfg["delag_adc"]:
+    if adc_delagged(cfg, polled):
         return response_tau_s(cfg)
     return sensor_tau_s(cfg) if sensor_is_slow(cfg) else None
+
+
+def adc_delagged(cfg, polled=False):
+    """`delag_adc` for this board: "auto" is on where DRDY is an interrupt, off where it is
+    polled (a gap every few samples, each costing the de-lag four: Delag.reset)."""
+    on = cfg["delag_adc"]
+    return (not polled) if on == "auto" else on
 
 
 def sensor_is_slow(cfg):

@@ -99,6 +99,8 @@ def config_row(key, entry):
     default, kind, lo, hi = entry
     if kind.startswith("choice:"):
         return "`%s`" % key, _fmt_default(default), "choice", ", ".join(kind[7:].split("|"))
+    if kind == "bool_auto":
+        return "`%s`" % key, _fmt_default(default), "bool or auto", "-"
     if kind in ("bool", "pin"):
         return "`%s`" % key, _fmt_default(default), kind, "-"
     if kind == "opt_float":

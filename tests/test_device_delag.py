@@ -9,9 +9,10 @@ the spin's |B| (0.1 s blocks, the paper's averaging) within the targets of 1 nT 
 estimates tau at the finish (device/lagfit.py), so a bandwidth configured 20 % wrong calibrates
 as well, the estimated tau in the record. The same calibration on every interpreter a board
 has: the de-lag, the gates and the sums at any tau are integers, so the same samples go into
-the same exact sums. A fast sensor (the Mag649, 1 kHz) is left as it is, unless `delag_adc`:
-then it is de-lagged by the response of the ADC's sinc3 and the firmware's boxcar, which are
-no mere delays (shared/delag.py).
+the same exact sums. A fast sensor (the Mag649, 1 kHz) is de-lagged by the response of the ADC's
+sinc3 and the firmware's boxcar, which are no mere delays (shared/delag.py), where the board's
+DRDY is an interrupt (`delag_adc` "auto", the default); on a board that polls DRDY
+(CircuitPython) it is left as it is, as the de-lag's restart after each gap would starve it.
 """
 
 import numpy as np
@@ -78,13 +79,14 @@ def _estimated_within_targets(r, target_nt):
 
 
 @pytest.mark.parametrize("sensor", ["mag649", "paper"])
-def test_with_delag_adc_a_fast_sensor_is_de_lagged_by_the_adc_filter_and_the_boxcar(tmp_path, sensor):
+def test_a_fast_sensor_is_de_lagged_by_the_adc_filter_and_the_boxcar_by_default(tmp_path, sensor):
     # the sinc3 (variance 1 / (4 rate^2)), the 2-conversion boxcar ((2^2 - 1) / (12 rate^2)) and
     # the sensor's 0.159 ms: sqrt(0.25 + 0.25 + 0.0253) ms = 0.725 ms at 1000 SPS. Undone, the
     # |B| they shrink by B (w tau)^2 / 2 = 0.52 nT at 1 rev/s no longer follows the hand's pace:
     # the full-sphere error at 1 rev/s was 0.044 nT (Mag649) and 0.064 nT (paper) left as it
-    # was, predicted as 0.034 and 0.028 nT (0.44 times it); now ~0.012 nT and predicted to 2
-    r = _run(tmp_path, "cpython", 1.0, 120.0, sensor=sensor, auto_finish=False, delag_adc=True)
+    # was, predicted as 0.034 and 0.028 nT (0.44 times it); now ~0.012 nT and predicted to 2.
+    # By default (delag_adc "auto"): the simulated board's DRDY is an interrupt
+    r = _run(tmp_path, "cpython", 1.0, 120.0, sensor=sensor, auto_finish=False)
     assert r["cal"]["state"] == "done", r["cal"]
     resp = r["record"].response
     assert resp["source"] == "given" and [round(t * 1e6) for t in resp["tau_s"]] == [725] * 3, resp
@@ -92,6 +94,18 @@ def test_with_delag_adc_a_fast_sensor_is_de_lagged_by_the_adc_filter_and_the_box
     real = _sphere_error(r)
     d = r["record"].diagnostics
     assert real < 0.025 and 0.5 * real <= d["predicted_error"] <= 2.0 * real, (real, d)
+
+
+def test_a_polled_drdy_leaves_a_fast_sensor_as_it_is_and_calibrates_on_its_samples(tmp_path):
+    # CircuitPython polls DRDY: a calibrated sample (1.76 ms on the simulated board) outlasts a
+    # conversion, a gap every sample or two, and the de-lag waits four samples after each. With
+    # delag_adc on such a board calibrates on a handful (7); "auto" leaves it off there
+    r = _run(tmp_path, "cpython", 1.0, 60.0, sensor="paper", auto_finish=False, polled=True)
+    assert r["cal"]["state"] == "done" and r["cal"]["n"] > 1000, r["cal"]
+    assert r["record"].response is None and r["status"]["delag_us"] is None
+    on = calibrate_and_verify(kind="cpython", root=str(tmp_path / "on"), rotate_s=60.0, spin_s=2.0, rot_rate=1.0,
+                              sensor={"sensor": "paper"}, seed=5, auto_finish=False, polled=True, delag_adc=True)
+    assert on["cal"]["n"] < 0.1 * r["cal"]["n"], on["cal"]
 
 
 @pytest.mark.parametrize("bandwidth_hz,rev_s,target_nt", [(4.0, 0.5, 1.0), (6.0, 1.0, 2.0)])

@@ -40,11 +40,16 @@ CASES = (
      {"sensor_bandwidth_hz": 4.2}, (0.5, 1.0)),
     ("Mag648, axes' bandwidths within 3 %", {"sensor": "mag648", "bandwidth_spread": 0.03}, {}, (0.5, 1.0)),
     ("Mag648 with two poles (same -3 dB)", {"sensor": "mag648", "poles": 2}, {}, (0.5, 1.0)),
-    ("Mag649 (not de-lagged: its lag allows the whole gate)", {"sensor": "mag649"}, {}, (0.5, 1.0)),
-    ("paper preset", {"sensor": "paper"}, {}, (0.5, 1.0)),
-    ("Mag649, delag_adc (de-lagged by the whole response, the ADC's sinc3 and the boxcar: 0.725 ms)",
-     {"sensor": "mag649"}, {"delag_adc": True}, (0.5, 1.0)),
-    ("paper preset, delag_adc", {"sensor": "paper"}, {"delag_adc": True}, (0.5, 1.0)),
+    ("Mag649 (de-lagged by the whole response, the ADC's sinc3 and the boxcar: 0.725 ms; delag_adc auto)",
+     {"sensor": "mag649"}, {}, (0.5, 1.0)),
+    ("paper preset (delag_adc auto: de-lagged so)", {"sensor": "paper"}, {}, (0.5, 1.0)),
+    ("Mag649, delag_adc off (not de-lagged: its lag allows the whole gate)", {"sensor": "mag649"},
+     {"delag_adc": False}, (0.5, 1.0)),
+    ("paper preset, delag_adc off", {"sensor": "paper"}, {"delag_adc": False}, (0.5, 1.0)),
+    ("paper preset, polled DRDY (CircuitPython: delag_adc auto is off there)", {"sensor": "paper"},
+     {"polled": True}, (1.0,)),
+    ("paper preset, polled DRDY, delag_adc on (every gap costs the de-lag four samples)", {"sensor": "paper"},
+     {"polled": True, "delag_adc": True}, (1.0,)),
 )
 PAPER_MAG648 = "29-38 nT PTP (Table 1: 38 nT at 250 Hz, 29 nT at 1000 Hz)"
 

@@ -174,8 +174,8 @@ def config_value(r, key):
             valid += [r.int(int(lo), int(hi)), float(r.int(int(lo), int(hi))), r.int(int(lo), int(hi)) + 0.5]
         if kind == "opt_float":
             valid.append(None)
-    elif kind == "bool":
-        valid += [True, False, 0, 1, "yes"]
+    elif kind in ("bool", "bool_auto"):
+        valid += [True, False, 0, 1, "yes", "auto", "AUTO"]
     elif kind == "pin":
         valid += [r.int(0, 40), "GP%d" % r.int(0, 40), -1, 1.5]
     elif kind.startswith("choice:"):

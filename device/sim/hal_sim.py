@@ -40,7 +40,7 @@ class Board(hal.Board):
         self.link = link
         self.root = root
         self.name = "sim-" + sys.implementation.name + ("-polled" if polled else "")
-        self.polled = polled
+        self.polled = self.polls_drdy = polled
         self.costs = dict(costs or {})   # busy key -> simulated us per unit
         self._handler = None
         self._rate = 0

@@ -18,6 +18,7 @@ class LoopBoard:
     REG_BAUD = 1000000
     DATA_BAUD = 8000000
     sleeps_with_irq = False   # idle() runs the handler itself: App.wait counts conversions, as in the simulator
+    polls_drdy = False        # but misses none: every conversion is read, as an interrupt would (hal.py)
 
     def __init__(self, src, root, rate):
         self.nf = src.seek(0, 2) // (2 * FRAME)
