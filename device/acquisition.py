@@ -138,6 +138,11 @@ class Acquisition:
         self._last = -1
 
     @property
+    def last_block(self):
+        """The block number of the sample poll delivered last (wraps at 2**30; -1: none yet)."""
+        return self._last
+
+    @property
     def discarded(self):
         """Blocks thrown away for a bad status header or a DRDY gap (polled DRDY)."""
         return self.state[DISCARDED]

@@ -80,6 +80,7 @@ class App:
         flow.load()
         sup.start(self.cfg)
         self.output.adc = sup.adc
+        self.output.acq = acq   # its block numbers number the raw stream's samples
         self._setup_pipeline()
         proto.event("boot", {"fw": FIRMWARE_VERSION, "proto": VERSION, "calibrated": flow.cal is not None,
                              "cal_source": flow.cal_source, "fault": sup.fault, "safe_mode": self.guard.safe_mode})

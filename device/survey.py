@@ -43,7 +43,7 @@ import json
 
 from protocol import json_number
 from screen import Screen
-from shared.delag import Delag, configured_tau_s, tau_us
+from shared.delag import DELAY, Delag, configured_tau_s, tau_us
 from shared.fixedpoint import FRACTION_BITS, ExactCorrection
 from store import file_path, free_bytes
 
@@ -192,6 +192,7 @@ class Output:
         self.board = board
         self.proto = proto
         self.adc = None            # the ADS1292Pair: the die temperature's conversion (app.py)
+        self.acq = None            # the Acquisition: the block numbers (app.py; the raw event's n)
         self.session = None        # the calibration in progress, fed every good sample
         self.cfg = None
         self.stream = "off"        # "off", "raw" or "corrected" (the stream command, config)
@@ -357,7 +358,9 @@ class Output:
         c = _FIXED3 % (_sign(_hundredths(sx, d), 100) + _sign(_hundredths(sy, d), 100) + _sign(_hundredths(sz, d), 100))
         temp_t = "%.2f" % temp if temp == temp else "null"
         if self.stream == "raw":
-            self.proto.event("raw", '"t": %d, "c": [%s], "temp": %s' % (t, c, temp_t))
+            # n: its last sample's block number (the screen holds one back, the de-lag DELAY more)
+            seq = -1 if self.acq is None else (self.acq.last_block - 1 - (DELAY if self._delag_on else 0)) & 0x3FFFFFFF
+            self.proto.event("raw", '"t": %d, "n": %d, "c": [%s], "temp": %s' % (t, seq, c, temp_t))
             if self.recorder is None and (self.log is None or self.session is not None):
                 return
         # h_c and |h_c| in milli-nT, integers: printed to the last digit a narrow float cannot hold

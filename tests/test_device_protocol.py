@@ -111,6 +111,10 @@ def test_stream_modes(client):
     client.step(0.5)
     raw = client.events("raw")
     assert len(raw) >= 4 and all(len(d["c"]) == 3 for d in raw)
+    # n numbers each block's last decimated sample: a block of rate / decim / survey_hz apart
+    cfg = client.ask("config get")["config"]
+    step = cfg["rate"] // cfg["decim"] // cfg["survey_hz"]
+    assert all(b["n"] - a["n"] == step for a, b in zip(raw, raw[1:])), [d["n"] for d in raw]
     assert client.ask("stream corrected")["stream"] == "corrected"
     client.step(0.5)
     data = client.events("data")

@@ -89,6 +89,9 @@ def test_deploy_calibrate_monitor_capture_pull_push_from_the_laptop(tmp_path):
     # the device's calibration against the numpy reference fitted offline to the captured samples:
     # they agree on every sample within the verification bound of noise and admitted smearing
     cap = load_capture(tmp_path / "capture.npz")
+    # the samples' times from their numbers (the raw event's n), not from when the main loop sent
+    # them (several in one millisecond): one decimated period apart, none lost
+    assert np.allclose(np.diff(cap["t"]), DEFAULTS["decim"] / DEFAULTS["rate"]), np.unique(np.diff(cap["t"]))
     h = field_nT(cap)
     device = to_nT_units(load_calibration(tmp_path / "device.json"), cap["nT_per_code"])
     offline = load_calibration(tmp_path / "offline.json")

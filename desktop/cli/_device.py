@@ -94,12 +94,3 @@ def stream_events(dev, name, seconds=None, silence=None):
             raise LinkError("no %s from the device on %s for %.0f s: it stopped, reset or was unplugged"
                             % (name, dev.port, silence))
 
-
-def unwrap_ms(ticks, period_s):
-    """Device times (ms, a ticks counter that may wrap) as seconds from the first; a wrap
-    (a step backwards) counts as one nominal period."""
-    out = [0.0]
-    for a, b in zip(ticks, ticks[1:]):
-        d = (b - a) / 1000.0
-        out.append(out[-1] + (d if d >= 0 else period_s))
-    return out[:len(ticks)]

@@ -6,6 +6,10 @@ survey_hz. For the duration of the capture survey_hz is set to the sample rate
 see is recorded as it is (a 0.1 s mean of vectors would shrink |B| while the
 sensor turns, docs/simulator.md), then set back. The file is a recording in
 desktop/formats/capture.py's format: `fluxcal fit FILE.npz -o CAL.json` fits it.
+Its time column is the samples' times (sample_times), from their numbers, not the events'
+times: the firmware sends what the main loop drains in one pass in the same millisecond (two
+samples every 20 ms at 100 Hz), and a de-lag (`fit --lag`, or `report` with a calibration
+that carries a response) differentiates over these times.
 It asks the operator to turn the sensor while it records, and says afterwards
 how much of the sphere the recording covers (the firmware's cells about zero,
 as a calibration without a previous one counts them), with a warning and the
@@ -17,9 +21,10 @@ import time
 
 from desktop.cli._errors import CommandError
 from desktop.cli._device import (add_port_arguments, connected, device_config, nT_per_code, quietly,
-                                 stream_events, unwrap_ms)
+                                 stream_events)
 from shared import codes
 
+WRAP = 1 << 30     # the firmware's block numbers wrap (device/acquisition.py)
 HELP = "record the handheld's raw samples (codes, temperature) to a capture file fluxcal fit reads"
 
 
@@ -53,7 +58,7 @@ def run(args):
                 quietly(dev, "config set survey_hz %d" % cfg["survey_hz"])
     if len(events) < 2:
         raise CommandError("only %d samples in %g s: nothing written" % (len(events), args.seconds))
-    t = unwrap_ms([e["t"] for e in events], 1.0 / hz)
+    t = sample_times(events, cfg["decim"] / float(cfg["rate"]), 1.0 / hz)
     meta = {"source": "fluxcal capture", "port": dev.port, "version": dev.info, "survey_hz": hz,
             "device_config": cfg}
     save_recording(args.output, [e["c"] for e in events], t, nT_per_code(cfg), [e["temp"] for e in events], meta)
@@ -62,6 +67,18 @@ def run(args):
           "`fluxcal fit %s -o CAL.json`" % (args.output, len(events), t[-1], hz, min(temps), max(temps), args.output))
     _say_coverage([e["c"] for e in events], nT_per_code(cfg), cfg)
     return 0
+
+
+def sample_times(events, sample_s, period_s):
+    """The samples' times (s from the first) of raw events: their numbers `n` (the firmware's
+    decimated samples, sample_s apart, wrapping at 2**30) count the samples lost between two
+    (a ring overflow, a spike the screen dropped); a firmware that sends no `n`: period_s apart."""
+    if not all(e.get("n", -1) >= 0 for e in events):
+        return [i * period_s for i in range(len(events))]
+    out = [0.0]
+    for a, b in zip(events, events[1:]):
+        out.append(out[-1] + ((b["n"] - a["n"]) % WRAP) * sample_s)
+    return out
 
 
 def _say_coverage(codes_xyz, scale, cfg):
