@@ -79,5 +79,7 @@ def test_no_step_to_see_keeps_the_configured_tau_and_says_so():
     s, (cal, reason, msg) = run_session(0.0, 0.0)
     assert cal is not None, (reason, msg)
     r = cal.response
-    assert r["source"] == "given" and r["tau_s"] == [0.031831] * 3, r
+    # the configured response: the sensor's 31,831 us and (delag_adc auto, the session's board not
+    # polled) the sinc3's and the 2-conversion boxcar's 0.5 ms each in quadrature at 1000 SPS
+    assert r["source"] == "given" and r["tau_s"] == [0.031839] * 3, r
     assert r["estimate"].startswith("not identified: the residual does not rise"), r
