@@ -25,7 +25,7 @@ from tests.interpreters import INTERPRETERS, float_eps, heap_bytes, need
 # (11.0 s measured for 3 sensors x 3 motions): the third solve is the bound.
 READY_S = 3 * 5.0 + 1.0
 # |B| PTP over the verification spin without a calibration (python -m desktop.bench.device; README, docs)
-UNCALIBRATED_PTP_NT = 543.4
+UNCALIBRATED_PTP_NT = 543.5
 
 
 @pytest.mark.parametrize("name", INTERPRETERS)
@@ -41,7 +41,7 @@ def test_full_calibration_cycle_on_each_interpreter(name, tmp_path):
     # of a hand rotation median 0.39, max 0.43 measured, against 0.43 / 0.57 at the former 2000 / 20 / 5)
     assert r["ptp_cal"] <= spin_ptp_bound(r["world"].scenario, len(r["spin_f_cal"])), r["ptp_cal"]
     # uncalibrated (nominal scale) the same spin is off by the sensor's axes and gains: the
-    # simulation is seeded, so it is the benchmark's figure (543.4 nT, one decimal, in the docs),
+    # simulation is seeded, so it is the benchmark's figure (543.5 nT, one decimal, in the docs),
     # to its rounding and to the interpreter's float over the field (the block averages of codes the
     # firmware streams: 4 half-ulps, as tests/test_shared_on_micropython.py bounds |h_c|)
     field = r["world"].scenario.field_nT

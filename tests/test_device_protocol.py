@@ -94,6 +94,17 @@ def test_the_line_limit_is_the_one_the_laptop_checks(client):
     assert [d["error"] for d in client.replies()] == [codes.UNKNOWN_COMMAND, codes.LINE_TOO_LONG]
 
 
+def test_delag_adc_takes_auto_or_a_bool(client):
+    """delag_adc: true, false or "auto" (on where DRDY is an interrupt: the simulated board's)."""
+    assert client.ask("config get delag_adc")["value"] == "auto"
+    assert client.ask("status", dt=0.2)["delag_us"] == [725] * 3     # uncalibrated: the configured response
+    assert client.ask("config set delag_adc false")["value"] is False
+    assert client.ask("status", dt=0.2)["delag_us"] is None          # a 1 kHz sensor: not slow
+    r = client.ask("config set delag_adc maybe")
+    assert r["ok"] is False and "true or false or auto" in r["msg"], r
+    assert client.ask("config set delag_adc auto")["value"] == "auto"
+
+
 def test_config_roundtrip_persists(client, tmp_path):
     assert client.ask("config set survey_hz 5")["value"] == 5
     assert client.ask("config get survey_hz")["value"] == 5
