@@ -5,6 +5,7 @@
 
 class Board:
     root = ""
+    polls_drdy = False    # device/hal.py's contract: DRDY an interrupt
 
     def ticks_ms(self):
         return 0
