@@ -16,7 +16,7 @@ if options.runtime == "micropython":
 
 # Every runtime: the application, the ADS1292 driver and the HAL contract.
 for name in ("acceptance", "acquisition", "ads1292", "app", "bootguard", "button", "calibration_flow", "commands",
-             "config", "gates", "hal", "health", "lagfit", "led", "protocol", "residual_stats", "residuals", "screen",
+             "config", "flashlog", "gates", "hal", "health", "lagfit", "led", "protocol", "residual_stats", "residuals", "screen",
              "session", "store", "survey", "surveylog"):
     module(name + ".py", opt=3)
 

@@ -1,5 +1,5 @@
 """The survey output: what every decimated sample becomes (|h_c|, block averages at survey_hz,
-the data/raw events, a rotating flash log).
+the data/raw events, the lines of the rotating flash log: flashlog.py).
 
     out = Output(board, proto)       # app.py wires it
     out.configure(cfg, sample_hz)    # the spike screen, the survey averager, the log (config.py)
@@ -37,15 +37,13 @@ from the calibration's temperature.
 """
 
 
-import os
-
 import json
 
+from flashlog import RotatingLog
 from protocol import json_number
 from screen import Screen
 from shared.delag import DELAY, Delag, configured_tau_s, tau_us
 from shared.fixedpoint import FRACTION_BITS, ExactCorrection
-from store import file_path, free_bytes
 
 # re-apply the temperature coefficients when the die moved this much: at 20 ppm/C and
 # 1 nT/C a step of 0.05 nT at 48,000 nT, below the noise
@@ -101,90 +99,6 @@ class Survey:
         self._sx = self._sy = self._sz = self._st = self._f = 0
         self.blocks += 1
         return out
-
-
-class RotatingLog:
-    """Append lines to root/log0.csv .. log{files-1}.csv, oldest overwritten.
-
-    Never fills the filesystem: before a file is (re)started the free space
-    must exceed file_bytes + reserve, otherwise logging stops with a reason.
-    """
-
-    HEADER = "t_ms,x_nt,y_nt,z_nt,f_nt,temp_c\n"
-
-    def __init__(self, root, file_bytes, files, reserve):
-        self.root = root
-        self.file_bytes = file_bytes
-        self.files = files
-        self.reserve = reserve
-        self.index = 0
-        self.size = 0
-        self.f = None
-        self.error = None
-        self.lines = 0
-        self._since_flush = 0
-        # continue after the newest existing file rather than overwrite it
-        newest = -1
-        best = -1
-        for i in range(files):
-            try:
-                m = os.stat(self._name(i))[8]
-            except OSError:
-                continue
-            if m >= best:
-                best, newest = m, i
-        self.index = (newest + 1) % files
-
-    def _name(self, i):
-        return file_path(self.root, "log%d.csv" % i)
-
-    def free_bytes(self):
-        return free_bytes(self.root)
-
-    def _open_next(self):
-        self.close()
-        name = self._name(self.index)
-        try:
-            os.remove(name)
-        except OSError:
-            pass
-        free = self.free_bytes()
-        if free is not None and free < self.file_bytes + self.reserve:
-            self.error = "log_full: %d bytes free, need %d" % (free, self.file_bytes + self.reserve)
-            return False
-        self.f = open(name, "w")
-        self.f.write(self.HEADER)
-        self.size = len(self.HEADER)
-        self.index = (self.index + 1) % self.files
-        return True
-
-    def write(self, line):
-        if self.error:
-            return False
-        try:
-            if self.f is None or self.size + len(line) > self.file_bytes:
-                if not self._open_next():
-                    return False
-            self.f.write(line)
-            self.size += len(line)
-            self.lines += 1
-            self._since_flush += 1
-            if self._since_flush >= 50:
-                self.f.flush()
-                self._since_flush = 0
-        except OSError as e:
-            self.error = "log_error: %s" % e
-            self.close()
-            return False
-        return True
-
-    def close(self):
-        if self.f is not None:
-            try:
-                self.f.close()
-            except OSError:
-                pass
-            self.f = None
 
 
 class Output:
