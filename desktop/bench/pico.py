@@ -110,17 +110,27 @@ def delta(window):
 
 
 def _raw_exec(port, code, timeout=300.0):
-    """Run `code` from MicroPython's raw REPL on `port` without waiting for it to end."""
+    """Run `code` from MicroPython's raw REPL on `port` after a soft reset, without waiting for
+    it to end. The soft reset gives it the heap the firmware boots with (boot.py runs, main.py
+    does not in the raw REPL): started in the heap the plain firmware left, the profiled one ran
+    short of it (start-cal refused with no_memory, the board reset under finish-cal)."""
     with serial.Serial(port, timeout=0.1) as ser:
-        got = b""
-        ser.write(b"\r\x01")
         end = time.monotonic() + timeout
-        while b"raw REPL; CTRL-B to exit\r\n>" not in got:
-            if time.monotonic() > end:
-                raise RuntimeError("no raw REPL on %s: %r" % (port, got[-200:]))
-            got += ser.read(4096)
-            if b">>> " in got[-8:]:
-                ser.write(b"\x01")
+
+        def until(marker, what):
+            got = b""
+            while marker not in got:
+                if time.monotonic() > end:
+                    raise RuntimeError("%s on %s: %r" % (what, port, got[-200:]))
+                got += ser.read(4096)
+                if b">>> " in got[-8:]:
+                    ser.write(b"\x01")
+            return got
+        ser.write(b"\r\x01")
+        until(b"raw REPL; CTRL-B to exit\r\n>", "no raw REPL")
+        ser.write(b"\x04")
+        until(b"soft reboot", "no soft reboot")
+        until(b"raw REPL; CTRL-B to exit\r\n>", "no raw REPL after the soft reboot")
         ser.write(code.encode() + b"\x04")
         got = b""
         while b"OK" not in got:
@@ -130,7 +140,8 @@ def _raw_exec(port, code, timeout=300.0):
 
 
 def _profiled_firmware(hh, dev):
-    """Hand the line back, then start the firmware again under pico_parts.py; a new Device."""
+    """Hand the line back, then start the firmware again under pico_parts.py, after a soft reset;
+    a new Device."""
     from desktop.firmware.deploy import firmware_version
     from desktop.link import open_device, wait_for_version
 

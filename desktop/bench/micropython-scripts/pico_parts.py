@@ -11,19 +11,16 @@
 # wrapper leaves its part named until the next wrapper returns. The wrappers' calls and writes
 # are the profiling's cost, which the bench measures as the load with them against the load
 # without. The DRDY handler needs none: it is a hard IRQ, counted by the runner as the exception.
+import sys
+
 import app
 import calibration_flow
-import gates
 import hal_micropython
 import protocol
-import residuals
 import screen
-import session
 import survey
 from machine import mem32
 from micropython import const
-
-from shared import coverage, fit
 
 _PORT = const(0x40068000)
 _ENTRY = const(0x100)      # on the way in: the runner counts a call (reads give the number alone)
@@ -81,13 +78,36 @@ def _wrap(cls, name, wrapper, part, parent=None):
     setattr(cls, name, wrapper(getattr(cls, name), part, parent))
 
 
+def _session_parts():
+    """Wrap the parts in the modules a session imports (calibration_flow.py imports them at
+    start-cal and drops them after the session, freeing their bytecode): imported here at boot
+    they would stay, and the profiled firmware's heap ran out at start-cal (no_memory). Each
+    session's fresh classes are wrapped once (the `_profiled` mark)."""
+    m = sys.modules
+    for cls, name, wrapper, part, parent in (
+            (m["gates"].Gates, "sample", _w4, GATES, OUTPUT),             # ... then a session's gates,
+            (m["shared.fit"].EllipsoidFit, "add", _w4, ADD, GATES),      # ... which add() what they accept,
+            (m["shared.coverage"].Coverage, "cell", _w4, CELL, GATES),   # ... place it in its coverage cell
+            (m["residuals"].ResidualBatches, "added", _w1, BATCHES, GATES),   # ... and count it into its batch
+            (m["session"].Session, "_solve", _nested, SOLVE, None)):     # every solve_every_s, and the final one
+        if not getattr(cls, "_profiled", False):
+            _wrap(cls, name, wrapper, part, parent)
+    for cls in (m["gates"].Gates, m["shared.fit"].EllipsoidFit, m["shared.coverage"].Coverage,
+                m["residuals"].ResidualBatches, m["session"].Session):
+        cls._profiled = True
+
+
+def _start(start):
+    def w(*a, **k):
+        r = start(*a, **k)
+        _session_parts()
+        return r
+    return w
+
+
 _wrap(survey.Output, "sample", _w5, OUTPUT, REST)          # per sample: |h_c|, the block, the data event
 screen.Screen.__init__ = _screen(screen.Screen.__init__)    # ... first the spike screen,
-_wrap(gates.Gates, "sample", _w4, GATES, OUTPUT)           # ... then a session's gates,
-_wrap(fit.EllipsoidFit, "add", _w4, ADD, GATES)            # ... which add() what they accept,
-_wrap(coverage.Coverage, "cell", _w4, CELL, GATES)         # ... place it in its coverage cell
-_wrap(residuals.ResidualBatches, "added", _w1, BATCHES, GATES)   # ... and count it into its batch
+calibration_flow.CalibrationFlow.start = _start(calibration_flow.CalibrationFlow.start)   # ... a session's parts
 _wrap(protocol.Protocol, "poll", _w1, PROTOCOL, REST)      # the serial line: read, parse, answer
-_wrap(session.Session, "_solve", _nested, SOLVE)           # every solve_every_s, and the final one
 _wrap(calibration_flow.CalibrationFlow, "finish", _nested, FINISH)   # the checks, tempco, the save
 app.start(hal_micropython)
