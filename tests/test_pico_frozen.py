@@ -85,3 +85,32 @@ def test_the_frozen_firmware_boots_in_a_heap_the_mpy_firmware_does_not(tmp_path,
                 open_device(board.port, timeout=10.0).close()
             said = mpremote(board.port, "fs", "ls", ":")
             assert "memory-error.txt" in said, said
+
+
+def test_deploy_onto_the_frozen_image_installs_only_what_the_image_lacks(tmp_path):
+    """`fluxcal deploy` on a board whose image has the firmware frozen in (make pico-frozen): the
+    image's modules would answer before lib/'s, so it copies boot.py, main.py and the native
+    modules, says the image's firmware runs, and that firmware answers after the reset."""
+    need("rp2-pico-frozen")
+    from desktop.devicesim.pico_board import PicoBoard
+    from desktop.firmware.deploy import firmware_version
+    from desktop.firmware.natmod import MODULES, natmod_path
+    from desktop.link import open_device
+
+    natives = [m for m in MODULES if natmod_path("armv6m", m) is not None]
+    fluxcal = os.path.join(os.path.dirname(sys.executable), "fluxcal")
+    with PicoBoard(str(tmp_path / "pico.flash"), idle="jump", frozen=True) as board:
+        r = subprocess.run([fluxcal, "deploy", "--port", board.port, "--wait", "120"], capture_output=True,
+                           text=True, timeout=600)
+        assert r.returncode == 0, r.stdout + r.stderr
+        said = r.stdout.strip().splitlines()[-1]
+        # boot.py, main.py and the native modules: no module the image holds
+        assert said.startswith("deployed %d files (the firmware frozen in the image" % (2 + len(natives))), said
+        assert "the image's firmware %s runs" % firmware_version("micropython") in said, said
+        dev = open_device(board.port, timeout=30.0)
+        try:
+            st = dev.ask("status")
+        finally:
+            dev.close()
+        # the native modules went on (the image has none of its own) and run
+        assert [st[k] for k in ("sums", "drdy", "screen")] == ["native"] * 3, st

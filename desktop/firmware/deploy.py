@@ -51,7 +51,7 @@ NATIVE_SAYS = {"fitsums": "native sums", "drdy": "native DRDY handler",    # in 
                "screenc": "native spike screen"}
 REMOVE = ".fluxcal-remove"       # in the staging folder: what swap.py removes (the files no longer deployed)
 
-Board = collections.namedtuple("Board", "name mpy block free leftovers")
+Board = collections.namedtuple("Board", "name mpy block free leftovers frozen")
 
 
 class DeployError(Exception):
@@ -87,6 +87,7 @@ class MicroPythonDeploy:
         self.files = board_files("micropython", compiled)
         self.image = MPY_DIR   # where the compiled files are: a temporary folder while run() runs
         self.remove = []       # paths on the board a deploy removes (on-board/swap.py, REMOVE)
+        self.frozen = None     # after run(): the version of a firmware frozen into the board's image
 
     # ****** the mpremote commands ******
     def _local(self, src, path):
@@ -109,6 +110,15 @@ class MicroPythonDeploy:
                 # matching one it would run in place of the pure Python deployed
                 self.remove.append(path)
         return added
+
+    def _frozen_image(self):
+        """A board whose image has the firmware frozen in (make pico-frozen): its modules would
+        come from the image whatever lib/ holds (sys.path: '', '.frozen', '/lib'), and the frozen
+        bytecode stays in flash, out of the heap. So only what the image lacks goes: boot.py and
+        main.py, the native modules; an earlier deploy's firmware in lib/ goes too (flash only)."""
+        lib = [path for _, path in self.files if path.startswith("lib/") and path not in NATIVES]
+        self.files = [f for f in self.files if f[1] not in lib]
+        self.remove += [p for path in lib for p in (path[:path.rfind(".")] + ".py", path[:path.rfind(".")] + ".mpy")]
 
     def info_command(self):
         return mpremote(self.port, "run", os.path.join(ON_BOARD, "info.py"))
@@ -167,9 +177,10 @@ class MicroPythonDeploy:
                               "the board, then deploy again" % (self.port, exc)) from None
         for line in out.splitlines():
             words = line.split()
-            if words[:1] == ["fluxcal-board"] and len(words) == 6:
+            if words[:1] == ["fluxcal-board"] and len(words) == 7:
                 left = () if words[5] == "-" else tuple(words[5].split(","))
-                return Board(words[1], decode_mpy(int(words[2])), int(words[3]), int(words[4]), left)
+                return Board(words[1], decode_mpy(int(words[2])), int(words[3]), int(words[4]), left,
+                             None if words[6] == "-" else words[6])
         raise DeployError("the board on %s did not say what it is: %r" % (self.port, out.strip()[-80:]))
 
     def _compile(self, board):
@@ -203,11 +214,15 @@ class MicroPythonDeploy:
     def _stage(self, board, say):
         """Compile (with --mpy) and copy everything into the staging folder; what was sent."""
         what = "source"
-        if self.compiled:
+        if board.frozen is not None:
+            what = "the firmware frozen in the image"
+        elif self.compiled:
             self._compile(board)
             what = ".mpy v%d%s" % (board.mpy.version, " for " + board.mpy.arch if board.mpy.arch else "")
         for module in self._add_native(board):
             what += ", " + NATIVE_SAYS[module]
+        if board.frozen is not None:
+            self._frozen_image()
         self._check_space(board)
         say("copying %d files (%s) to %s/ on %s" % (len(self.files), what, STAGE, self.port))
         try:
@@ -227,6 +242,7 @@ class MicroPythonDeploy:
 
     def run(self, say=lambda line: None):
         board = self.read_board()
+        self.frozen = board.frozen
         if board.name != "micropython":
             raise DeployError("the board on %s runs %s, not MicroPython: give its drive instead "
                               "(fluxcal deploy --drive CIRCUITPY)" % (self.port, board.name))
@@ -247,7 +263,11 @@ class MicroPythonDeploy:
         except DeployError as exc:
             raise DeployError("the new firmware is in place but the reset failed (%s): reset the board by hand"
                               % exc) from None
-        return "deployed %d files (%s) to %s: swapped in place, board reset" % (len(self.files), what, self.port)
+        said = "deployed %d files (%s) to %s: swapped in place, board reset" % (len(self.files), what, self.port)
+        if board.frozen is not None:
+            said += ("; the image's firmware %s runs: a new firmware is a new image (make pico-frozen, then its "
+                     "firmware.uf2 onto the board in BOOTSEL mode)" % board.frozen)
+        return said
 
 
 def _swap_script():
