@@ -99,7 +99,10 @@ def test_deploy_onto_the_frozen_image_installs_only_what_the_image_lacks(tmp_pat
 
     natives = [m for m in MODULES if natmod_path("armv6m", m) is not None]
     fluxcal = os.path.join(os.path.dirname(sys.executable), "fluxcal")
+    stale = tmp_path / "app.mpy"           # an earlier .mpy deploy's module: flash the image never reads
+    stale.write_bytes(b"M")
     with PicoBoard(str(tmp_path / "pico.flash"), idle="jump", frozen=True) as board:
+        mpremote(board.port, "fs", "mkdir", ":lib", "+", "fs", "cp", str(stale), ":lib/app.mpy")
         r = subprocess.run([fluxcal, "deploy", "--port", board.port, "--wait", "120"], capture_output=True,
                            text=True, timeout=600)
         assert r.returncode == 0, r.stdout + r.stderr
@@ -110,7 +113,10 @@ def test_deploy_onto_the_frozen_image_installs_only_what_the_image_lacks(tmp_pat
         dev = open_device(board.port, timeout=30.0)
         try:
             st = dev.ask("status")
+            dev.ask("repl")
         finally:
             dev.close()
-        # the native modules went on (the image has none of its own) and run
+        # the native modules went on (the image has none of its own) and run; the stale module went
         assert [st[k] for k in ("sums", "drdy", "screen")] == ["native"] * 3, st
+        listed = mpremote(board.port, "fs", "ls", ":lib")
+        assert "app.mpy" not in listed and all("%s.mpy" % m in listed for m in natives), listed
