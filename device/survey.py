@@ -325,7 +325,7 @@ class Output:
                # the spike screen's push: "native" (screenc.mpy) or "python"
                "screen": self.screen.path,
                # the taus (us per axis) the samples are de-lagged with, None: not de-lagged
-               "delag_us": self.delag.taus_us if self._delag_on else None,
+               "delag_us": self.delag.taus_us if self._delag_on else None, "delag": self.delag.path,
                # |h_c| of the calibration in force: "native" (fitsums.mpy) or "python"; None: none
                "magnitude": None if self.exact_w is None else self.exact_w.path}
         if self.log is not None:

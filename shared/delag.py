@@ -56,9 +56,22 @@ exactly (ties up): shift is chosen so that 8 num < 2**(30 - shift), and |8 num h
 (|.| < 2**30: no heap allocation on MicroPython). A de-lag term that large (2**26 nT at
 the handheld's scale), or a result beyond the boxcar's full scale (window 2**23), is no
 field: the sample is dropped and counted in `saturated`.
+
+Native: where deploy installed delagc.mpy (device/native/delagc.c; MicroPython boards of a
+matching architecture), push runs in C once five samples are held: the same rotation of the
+same lists, the same terms in 64-bit words, no allocation; any push whose numbers do not fit
+its words goes to Delag.push, the reference, before anything changes. Elsewhere (CPython,
+CircuitPython) Delag.push runs every sample; `.path` says which ("native" or "python": status).
 """
 
 import math
+
+try:
+    # push in C where deploy installed the board's delagc.mpy (MicroPython; ValueError: a .mpy
+    # of another arch or version)
+    from delagc import Push as _NativePush
+except (ImportError, ValueError):
+    _NativePush = None
 
 _LIMIT = 1 << 27      # the largest part of a de-lag term, sum units
 _MAX_SHIFT = 16
@@ -133,7 +146,7 @@ def coefficients(taus_us, rate, decim):
 
 
 class Delag:
-    def __init__(self, window):
+    def __init__(self, window, native=True):
         self.top = window << 23      # |a de-lagged sum| stays under the boxcar's full scale
         self.saturated = 0           # samples dropped: a de-lag term no field makes
         self.taus_us = None          # None: off (push is not called)
@@ -143,6 +156,9 @@ class Delag:
         # the last five samples, oldest first: (x, y, z, temperature) each
         self._h = [[0, 0, 0, 0] for _ in range(5)]
         self.reset()
+        # push in C where delagc.mpy loads (native=False: the class's push, the reference, as
+        # the tests compare them), set by set_taus: an instance attribute, found before the method
+        self.path = "native" if native and _NativePush is not None else "python"
 
     def set_taus(self, taus_us, rate, decim, steps_us=None):
         """De-lag with these per-axis time constants (whole us) at rate / decim samples/s;
@@ -165,6 +181,9 @@ class Delag:
         self._k = k[:3]
         self._dk = k[3:] if steps_us is not None else None
         self._lim = [(_LIMIT // (8 * n) if n else _LIMIT) for n in k]
+        if self.path == "native":
+            # it takes the lists and numbers just set (and the history, never replaced)
+            self.push = _NativePush(self, Delag.push)
 
     def reset(self):
         """Forget the held samples (a gap: the next one has no neighbour)."""

@@ -44,7 +44,8 @@ RULES = {
     "desktop/cli": (("numpy", "matplotlib", "rich"), ("shared", "desktop")),
 }
 # the MicroPython-only modules shared/ guards with try/except ImportError
-MICROPYTHON_ONLY = {"micropython", "fitsums"}   # fitsums: the native sums (device/native), where deployed
+# fitsums: the native sums, delagc: the de-lag's push (device/native), where deployed
+MICROPYTHON_ONLY = {"micropython", "fitsums", "delagc"}
 
 
 def _modules(folder):

@@ -27,53 +27,16 @@
 #include "py/objlist.h"
 #include "py/objtuple.h"
 #include "py/smallint.h"
+#include "words.h"
 
 #define STATE (10)              // len(self._st)
 #define CODE_LIMIT (((int64_t)1) << 31)
 #define THR_LIMIT (((int64_t)1) << 60)
 #define M_LIMIT (((int64_t)1) << 29)
 
-// a * b for a < 2^34, b < 2^29 (the product under 2^63). The Cortex-M0+ multiplies 32 x 32 ->
-// 32 only, and libgcc's 64-bit multiply is not linked into a native module: 16-bit products
-// there (as in fitsums.c)
-static inline uint64_t mul(uint64_t a, uint32_t b) {
-    uint32_t lo = (uint32_t)a, hi = (uint32_t)(a >> 32);
-    #if defined(__ARM_ARCH_6M__)
-    uint32_t ll = lo & 0xffff, lh = lo >> 16, bl = b & 0xffff, bh = b >> 16;
-    uint64_t low = ((uint64_t)(lh * bh) << 32) + (((uint64_t)(ll * bh) + lh * bl) << 16) + ll * bl;
-    #else
-    uint64_t low = (uint64_t)lo * b;
-    #endif
-    return low + ((uint64_t)(hi * b) << 32);
-}
-
-// v >> s for 0 <= s < 64, in 32-bit words (libgcc's 64-bit shifts are not linked either)
-static inline uint64_t shr(uint64_t v, uint32_t s) {
-    uint32_t lo = (uint32_t)v, hi = (uint32_t)(v >> 32);
-    if (s >= 32) {
-        return hi >> (s - 32);
-    }
-    if (s == 0) {
-        return v;
-    }
-    return ((uint64_t)(hi >> s) << 32) | (lo >> s) | (hi << (32 - s));
-}
-
 // floor(v / 16), as Python's v >> 4 on a negative v too
 static inline int64_t floor16(int64_t v) {
     return v >= 0 ? (int64_t)shr((uint64_t)v, 4) : -(int64_t)shr((uint64_t)(15 - v), 4);
-}
-
-static inline bool small(mp_obj_t o, int64_t limit, int64_t *out) {
-    if (!mp_obj_is_small_int(o)) {
-        return false;
-    }
-    *out = MP_OBJ_SMALL_INT_VALUE(o);
-    return *out < limit && *out > -limit;
-}
-
-static inline bool fits(int64_t v) {
-    return v >= MP_SMALL_INT_MIN && v <= MP_SMALL_INT_MAX;
 }
 
 // the bend on one axis in units: (|a - e| * m) >> sh
@@ -111,17 +74,6 @@ static mp_obj_t push_make_new(const mp_obj_type_t *type, size_t n_args, size_t n
     return MP_OBJ_FROM_PTR(self);
 }
 
-// Screen.push(screen, x, y, z, t): the whole push in Python
-static mp_obj_t python_push(push_t *self, const mp_obj_t *args) {
-    mp_obj_t call[5];
-    call[0] = self->screen;     // (one by one: a loop becomes a memcpy, which is not linked)
-    call[1] = args[0];
-    call[2] = args[1];
-    call[3] = args[2];
-    call[4] = args[3];
-    return mp_call_function_n_kw(self->python_push, 5, 0, call);
-}
-
 // push(x, y, z, t)
 static mp_obj_t push_call(mp_obj_t self_in, size_t n_args, size_t n_kw, const mp_obj_t *args) {
     if (n_args != 4 || n_kw) {
@@ -140,7 +92,7 @@ static mp_obj_t push_call(mp_obj_t self_in, size_t n_args, size_t n_kw, const mp
             && small(st[i], CODE_LIMIT, &held[i]) && small(st[3 + i], CODE_LIMIT, &held[3 + i]);
     }
     if (!ok) {
-        return python_push(self, args);
+        return call_python(self->python_push, self->screen, args);
     }
     // the bend of c, |(c - p) - (n - c)| per axis in units, the largest: e
     int64_t d[3], e = 0;
@@ -154,12 +106,12 @@ static mp_obj_t push_call(mp_obj_t self_in, size_t n_args, size_t n_kw, const mp
     // within spike_nt + allow by half the largest bend: good without the stand-out. Else
     // Python judges it (a spike, a sharp bend: _stands_out)
     if ((int64_t)shr((uint64_t)e, 1) > thr) {
-        return python_push(self, args);
+        return call_python(self->python_push, self->screen, args);
     }
     // learn the pending bend (allow += (p - allow + 8) >> 4, on thr), hold this one's
     int64_t thr2 = pend >= 0 ? thr + floor16(pend + sp - thr + 8) : thr;
     if (!fits(thr2) || !fits(e + e) || !fits(d[0]) || !fits(d[1]) || !fits(d[2])) {
-        return python_push(self, args);
+        return call_python(self->python_push, self->screen, args);
     }
     st[8] = MP_OBJ_NEW_SMALL_INT((mp_int_t)thr2);
     st[9] = MP_OBJ_NEW_SMALL_INT((mp_int_t)(e + e));
