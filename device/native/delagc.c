@@ -37,6 +37,16 @@ static inline int64_t floorshr(int64_t v, uint32_t s) {
     return v >= 0 ? (int64_t)shr((uint64_t)v, s) : -(int64_t)shr((uint64_t)(-v - 1), s) - 1;
 }
 
+// a small int within +-limit (limit <= 2^31) in a machine word: on a 32-bit port every small
+// int is (under 2^30), so only the 64-bit ports compare (64-bit compares cost on the M0+)
+static inline bool word(mp_obj_t o, int64_t limit, mp_int_t *out) {
+    if (!mp_obj_is_small_int(o)) {
+        return false;
+    }
+    *out = MP_OBJ_SMALL_INT_VALUE(o);
+    return sizeof(mp_int_t) <= 4 || (*out < limit && *out > -limit);
+}
+
 static inline bool is_list(mp_obj_t o, size_t len) {
     return mp_obj_is_type(o, &mp_type_list) && ((mp_obj_list_t *)MP_OBJ_TO_PTR(o))->len == len;
 }
@@ -101,21 +111,22 @@ static mp_obj_t push_call(mp_obj_t self_in, size_t n_args, size_t n_kw, const mp
     }
     push_t *self = MP_OBJ_TO_PTR(self_in);
     mp_obj_t *h = items(self->h);
-    int64_t n, shift, top, v[3], old[4][3], k[3], lim[6], dk[3];
+    int64_t top = 0;
+    mp_int_t n = 0, shift = 1, v[3], old[4][3], k[3], lim[6], dk[3];
     bool steps = self->dk != mp_const_none;
-    bool ok = small(mp_load_attr(self->delag, MP_QSTR__n), CODE_LIMIT, &n) && n >= 4
-        && small(self->shift, 17, &shift) && shift >= 1 && small(self->top, TOP_LIMIT, &top);
+    bool ok = word(mp_load_attr(self->delag, MP_QSTR__n), CODE_LIMIT, &n) && n >= 4
+        && word(self->shift, 17, &shift) && shift >= 1 && shift <= 16 && small(self->top, TOP_LIMIT, &top);
     // the held samples oldest first: h[0] (its slot takes this one), h[1] .. h[4] (a .. d)
     for (int j = 0; ok && j < 5; j++) {
         ok = is_list(h[j], 4);
     }
     for (int i = 0; ok && i < 3; i++) {
-        ok = small(args[i], CODE_LIMIT, &v[i]) && small(items(self->k)[i], NUM_LIMIT, &k[i]) && k[i] >= 0
-            && small(items(self->lim)[i], LIM_LIMIT, &lim[i])
-            && (!steps || (small(items(self->dk)[i], NUM_LIMIT, &dk[i]) && dk[i] >= 0
-                           && small(items(self->lim)[3 + i], LIM_LIMIT, &lim[3 + i])));
+        ok = word(args[i], CODE_LIMIT, &v[i]) && word(items(self->k)[i], NUM_LIMIT, &k[i])
+            && k[i] >= 0 && k[i] < NUM_LIMIT && word(items(self->lim)[i], LIM_LIMIT, &lim[i]) && lim[i] < LIM_LIMIT
+            && (!steps || (word(items(self->dk)[i], NUM_LIMIT, &dk[i]) && dk[i] >= 0 && dk[i] < NUM_LIMIT
+                           && word(items(self->lim)[3 + i], LIM_LIMIT, &lim[3 + i]) && lim[3 + i] < LIM_LIMIT));
         for (int j = 0; ok && j < 4; j++) {
-            ok = small(items(h[j + 1])[i], CODE_LIMIT, &old[j][i]);
+            ok = word(items(h[j + 1])[i], CODE_LIMIT, &old[j][i]);
         }
     }
     if (!ok) {
@@ -125,7 +136,7 @@ static mp_obj_t push_call(mp_obj_t self_in, size_t n_args, size_t n_kw, const mp
     int64_t out[3], e[3];
     bool good = true;
     for (int i = 0; i < 3; i++) {
-        int64_t d1 = old[3][i] - old[1][i], d2 = v[i] - old[0][i];
+        int64_t d1 = (int64_t)old[3][i] - old[1][i], d2 = (int64_t)v[i] - old[0][i];
         good = delagged(old[2][i], d1, d2, k[i], lim[i], (uint32_t)shift, top, &out[i]) && good;
         if (steps && good && !delagged(0, d1, d2, dk[i], lim[3 + i], (uint32_t)shift, top, &e[i])) {
             // a step's term beyond the limits: None, as Python has it
