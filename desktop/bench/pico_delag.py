@@ -16,18 +16,31 @@ import os
 import shutil
 import subprocess
 import sys
-import tempfile
 
 import numpy as np
 
-from desktop.devicesim.pico_board import PicoBoard
 from desktop.firmware.files import REPO
 from desktop.firmware.interpreters import pico_parts
 from desktop.firmware.natmod import natmod_path
+from desktop.bench.pico_survey import run_on_pico
 from desktop.sim.instrument import realistic_instrument
 
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "micropython-scripts", "pico_delag.py")
 MHZ = 125
+
+
+def _disk(disk, sums):
+    """shared/delag.py and the script as .mpy for the Pico, the job, delagc.mpy where built."""
+    cross = pico_parts()["mpy_cross"]
+    os.makedirs(os.path.join(disk, "shared"))
+    for src, rel in ((os.path.join(REPO, "shared", "__init__.py"), "shared/__init__.py"),
+                     (os.path.join(REPO, "shared", "delag.py"), "shared/delag.py"), (SCRIPT, "pico_delag.py")):
+        subprocess.run([cross, "-o", os.path.join(disk, rel[:-3] + ".mpy"), src], check=True)
+    with open(os.path.join(disk, "job.json"), "w") as fh:
+        json.dump({"sums": sums}, fh)
+    native = natmod_path("armv6m", "delagc")
+    if native:
+        shutil.copyfile(native, os.path.join(disk, "delagc.mpy"))
 
 
 def main(argv=None):
@@ -36,33 +49,17 @@ def main(argv=None):
     _, spin, _ = realistic_instrument()
     window = 2
     sums = (spin[:400] * window + np.random.default_rng(1).integers(0, window, size=(400, 3))).tolist()
-    cross = pico_parts()["mpy_cross"]
-    with tempfile.TemporaryDirectory(prefix="fluxcal-pico-delag-") as tmp:
-        disk = os.path.join(tmp, "disk")
-        os.makedirs(os.path.join(disk, "shared"))
-        for src, rel in ((os.path.join(REPO, "shared", "__init__.py"), "shared/__init__.py"),
-                         (os.path.join(REPO, "shared", "delag.py"), "shared/delag.py"), (SCRIPT, "pico_delag.py")):
-            subprocess.run([cross, "-o", os.path.join(disk, rel[:-3] + ".mpy"), src], check=True)
-        with open(os.path.join(disk, "job.json"), "w") as fh:
-            json.dump({"sums": sums}, fh)
-        native = natmod_path("armv6m", "delagc")
-        if native:
-            shutil.copyfile(native, os.path.join(disk, "delagc.mpy"))
-        with PicoBoard(os.path.join(tmp, "pico.flash")) as board:
-            r = subprocess.run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", disk, ":",
-                                "+", "exec", "import sys; sys.path.insert(0, '/disk'); import pico_delag"],
-                               capture_output=True, text=True, timeout=1800)
-    if r.returncode:
-        print("the Pico run failed: %s" % (r.stdout + r.stderr).strip()[-800:], file=sys.stderr)
+    got = run_on_pico(lambda disk: _disk(disk, sums), "pico_delag")
+    if got is None:
         return 1
-    got = json.loads(r.stdout.splitlines()[-1])
     print("| de-lag on the emulated Pico (Delag.push, %s; 400 samples of the spin, tau 31,839 us) "
           "| emulated us, cycles | the Python push: emulated us, cycles |" % got["path"])
     print("|---|---|---|")
     for key, label in (("plain", "a push, no tau steps (the survey)"),
                        ("steps", "a push with tau steps (a calibration estimating tau)")):
         a, b = got[key + "_native"], got[key + "_python"]
-        print("| %s | %.1f, %s | %.1f, %s |" % (label, a, "{:,}".format(round(a * MHZ)), b, "{:,}".format(round(b * MHZ))))
+        print("| %s | %.1f, %s | %.1f, %s |" % (label, a, "{:,}".format(round(a * MHZ)),
+                                               b, "{:,}".format(round(b * MHZ))))
     return 0
 
 

@@ -59,6 +59,22 @@ def _disk(folder, source, job):
             shutil.copyfile(native, os.path.join(folder, module + ".mpy"))
 
 
+def run_on_pico(fill, script):
+    """fill(folder) writes the disk; on a fresh emulated Pico it is copied to /disk and `script`
+    imported from it: the JSON of its last line, or None (the failure said on stderr)."""
+    with tempfile.TemporaryDirectory(prefix="fluxcal-%s-" % script.replace("_", "-")) as tmp:
+        disk = os.path.join(tmp, "disk")
+        fill(disk)
+        with PicoBoard(os.path.join(tmp, "pico.flash")) as board:
+            r = subprocess.run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", disk, ":",
+                                "+", "exec", "import sys; sys.path.insert(0, '/disk'); import " + script],
+                               capture_output=True, text=True, timeout=1800)
+    if r.returncode:
+        print("the Pico run failed: %s" % (r.stdout + r.stderr).strip()[-800:], file=sys.stderr)
+        return None
+    return json.loads(r.stdout.splitlines()[-1])
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m desktop.bench.pico_survey", description=__doc__.splitlines()[0])
     p.add_argument("--source", default=REPO, help="the tree whose device/ and shared/ run (default: this one)")
@@ -74,17 +90,9 @@ def main(argv=None):
     for i in range(5, 400, 40):
         screen_sums[i][int(rng.integers(0, 3))] += int(rng.choice([-1, 1])) << int(rng.integers(8, 20))
     job = {"cal": cal.to_dict(), "window": window, "per_block": 10, "sums": sums, "screen_sums": screen_sums}
-    with tempfile.TemporaryDirectory(prefix="fluxcal-pico-survey-") as tmp:
-        disk = os.path.join(tmp, "disk")
-        _disk(disk, os.path.abspath(args.source), job)
-        with PicoBoard(os.path.join(tmp, "pico.flash")) as board:
-            r = subprocess.run([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", disk, ":",
-                                "+", "exec", "import sys; sys.path.insert(0, '/disk'); import pico_survey"],
-                               capture_output=True, text=True, timeout=1800)
-    if r.returncode:
-        print("the Pico run failed: %s" % (r.stdout + r.stderr).strip()[-800:], file=sys.stderr)
+    got = run_on_pico(lambda disk: _disk(disk, os.path.abspath(args.source), job), "pico_survey")
+    if got is None:
         return 1
-    got = json.loads(r.stdout.splitlines()[-1])
     print("| survey output on the emulated Pico (%s, \\|h_c\\| in %s; %s) | emulated us | cycles |"
           % (got["path"], got.get("magnitude_path", "python"), args.source))
     print("|---|---|---|")

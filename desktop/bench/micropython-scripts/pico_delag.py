@@ -35,7 +35,8 @@ def main():
         for native in (True, False):
             dl = Delag(2, native)
             dl.set_taus([31839, 31839, 31839], 1000, 10, steps)
-            out["%s_%s" % ("steps" if steps else "plain", "native" if native else "python")] = _loop(dl.push, sums) - loop
+            key = "%s_%s" % ("steps" if steps else "plain", "native" if native else "python")
+            out[key] = _loop(dl.push, sums) - loop
     print(json.dumps(out))
 
 
