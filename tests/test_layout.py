@@ -50,8 +50,8 @@ MICROPYTHON_ONLY = {"micropython", "fitsums", "delagc"}
 
 def _modules(folder):
     for d, _, files in os.walk(os.path.join(ROOT, folder)):
-        if {"micropython-scripts", "stand-ins"} & set(os.path.relpath(d, ROOT).split(os.sep)):
-            continue   # run inside micropython / CircuitPython, not modules of the desktop package
+        if {"micropython-scripts", "stand-ins", "on-board"} & set(os.path.relpath(d, ROOT).split(os.sep)):
+            continue   # run inside micropython / CircuitPython (on a board), not modules of the desktop package
         for f in files:
             if f.endswith(".py"):
                 yield os.path.join(d, f)

@@ -38,7 +38,7 @@ from desktop.sim.instrument import realistic_instrument
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "micropython-scripts", "pico_survey.py")
 STAND_INS = os.path.join(os.path.dirname(SCRIPT), "survey_stand_ins.py")
 MHZ = 125
-DEVICE = ("survey", "protocol", "screen", "store", "config")
+DEVICE = ("survey", "flashlog", "protocol", "screen", "store", "config")   # those a tree has
 
 
 def _disk(folder, source, job):
@@ -47,7 +47,8 @@ def _disk(folder, source, job):
     os.makedirs(os.path.join(folder, "shared"))
     pairs = [(os.path.join(source, "shared", n), os.path.join("shared", n))
              for n in sorted(os.listdir(os.path.join(source, "shared"))) if n.endswith(".py")]
-    pairs += [(os.path.join(source, "device", n + ".py"), n + ".py") for n in DEVICE]
+    pairs += [(os.path.join(source, "device", n + ".py"), n + ".py") for n in DEVICE
+              if os.path.exists(os.path.join(source, "device", n + ".py"))]   # flashlog.py: from 4fef6d7
     pairs += [(SCRIPT, "pico_survey.py"), (STAND_INS, "survey_stand_ins.py")]
     for src, rel in pairs:
         subprocess.run([cross, "-o", os.path.join(folder, rel[:-3] + ".mpy"), src], check=True)
