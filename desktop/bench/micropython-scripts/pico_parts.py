@@ -98,9 +98,12 @@ def _session_parts():
 
 
 def _start(start):
-    def w(*a, **k):
-        r = start(*a, **k)
+    def w(flow, *a, **k):
+        r = start(flow, *a, **k)
         _session_parts()
+        s = flow.session
+        if s is not None:
+            s.sample = s.gates.sample   # session.py binds the gates' sample when it is built
         return r
     return w
 
