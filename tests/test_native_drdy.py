@@ -26,7 +26,7 @@ from tests.test_native_sums import LOADS_NATMODS, _need_natmod, on_the_emulated_
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(REPO, "tests", "micropython", "native_drdy.py")
-SOURCES = ["device/acquisition.py"]
+SOURCES = ["device/acquisition.py", "tests/micropython/lcg.py"]
 FULL_SCALE_FRAMES = ((1 << 30) - 1 - 2 + 3 * 64) % (1 << 30)     # FRAMES after the heap-locked run
 
 

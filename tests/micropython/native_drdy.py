@@ -5,7 +5,7 @@
 # the pure-Python _isr (a board without drdy_bus), once with the native handler where it loads
 # (a board with drdy_bus); after every conversion their state, acc and ring arrays and the
 # order of the bus calls (cs0 low, read, cs0 high, cs1 low, read, cs1 high) must be the same.
-# Frames come from a fixed 32-bit LCG (not `random`): random codes and the +-2**23 extremes,
+# Frames come from a fixed 32-bit LCG (lcg.py beside it, not `random`): random codes and the +-2**23 extremes,
 # bad status headers on either chip, counters started near the 2**30 wrap, a small ring read
 # now and then (so it fills and overflows), account_gap and set_decimation between
 # conversions, decim/window combinations with window == decim and window 1. Prints one line
@@ -21,22 +21,6 @@ WRAP = (1 << 30) - 1
 # (decim, window, ring_frames, conversions)
 SCENARIOS = ((10, 2, 4, 700), (10, 10, 3, 300), (1, 1, 4, 200), (64, 64, 8, 400), (64, 1, 2, 500),
              (7, 3, 5, 400), (2, 1, 1, 60), (3, 2, 16, 300))
-
-
-class Rand:
-    """Random ints from a 32-bit LCG, the same on every interpreter."""
-
-    def __init__(self, seed):
-        self.state = seed
-
-    def bits(self, n):
-        v = 0
-        k = 0
-        while k < n:
-            self.state = (1103515245 * self.state + 12345) & 0xFFFFFFFF
-            v = (v << 16) | (self.state >> 16)
-            k += 16
-        return v >> (k - n)
 
 
 class Board:
@@ -147,7 +131,7 @@ def same(a, b):
     return a.state == b.state and a.acc == b.acc and a.ring == b.ring
 
 
-def heap_locked(A):
+def heap_locked(A, Rand):
     """The native handler with the heap locked, as a hard IRQ runs it: counters just below the
     wrap, full-scale frames filling the largest boxcar; what it raised."""
     import micropython
@@ -176,10 +160,11 @@ def heap_locked(A):
 
 
 def main(root, natmod=None):
-    for folder in (root + "/device", natmod):
+    for folder in (root + "/device", root + "/tests/micropython", natmod):
         if folder and folder not in sys.path:
             sys.path.insert(0, folder)
     import acquisition as A
+    from lcg import Rand
 
     cpython = sys.implementation.name == "cpython"
     native = A._NativeHandler is not None
@@ -216,7 +201,7 @@ def main(root, natmod=None):
         print(json.dumps([decim, window, list(acq.state), list(acq.acc), list(acq.ring), got[-3:], h]))
     acq = twin = board = fs = got = got2 = None
     gc.collect()
-    locked = heap_locked(A) if native and not cpython else None
+    locked = heap_locked(A, Rand) if native and not cpython else None
     print(json.dumps({"path": "native" if native else "python", "differed": differed, "heap_locked": locked}))
 
 
