@@ -23,10 +23,12 @@ import sys
 import pytest
 
 from tests.interpreters import INTERPRETERS, need
-from tests.test_native_sums import LOADS_NATMODS, _need_natmod, on_the_emulated_cortex_m3, on_the_emulated_pico, output
+from tests.test_native_sums import (LOADS_NATMODS, _need_natmod, _sources, on_the_emulated_cortex_m3,
+                                     on_the_emulated_pico, output)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(REPO, "tests", "micropython", "native_magnitude.py")
+SOURCES = _sources(None) + ["tests/micropython/lcg.py"]   # shared/ and the random ints
 PATHS = ["real"] * 5 + ["adversarial"] * 3 + ["top"] * 2      # then wide_c and wide_w: always python
 
 
@@ -65,8 +67,8 @@ def test_native_magnitude_is_the_pure_python_one(name, reference, micropython):
 
 
 def test_native_magnitude_on_the_emulated_pico(reference, tmp_path):
-    _check(on_the_emulated_pico(tmp_path, SCRIPT), reference, True)
+    _check(on_the_emulated_pico(tmp_path, SCRIPT, sources=SOURCES), reference, True)
 
 
 def test_native_magnitude_on_the_emulated_cortex_m3(reference, tmp_path, mpy_cross):
-    _check(on_the_emulated_cortex_m3(tmp_path, SCRIPT, mpy_cross), reference, True)
+    _check(on_the_emulated_cortex_m3(tmp_path, SCRIPT, mpy_cross, sources=SOURCES), reference, True)

@@ -16,26 +16,6 @@ SUM = 1 << 31              # the native words' sums: |s| < SUM, and small ints (
 H = 1 << 62                # and their h_i: |h_i| < H
 
 
-class Rand:
-    """Random ints from a 32-bit LCG, the same on every interpreter."""
-
-    def __init__(self, seed):
-        self.state = seed
-
-    def bits(self, n):
-        v = 0
-        k = 0
-        while k < n:
-            self.state = (1103515245 * self.state + 12345) & 0xFFFFFFFF
-            v = (v << 16) | (self.state >> 16)
-            k += 16
-        return v >> (k - n)
-
-    def signed(self, n):
-        v = self.bits(n)
-        return -v if self.bits(1) else v
-
-
 class Pairs:
     """A calibration as ExactCorrection reads it: M and b as exact (m, e) pairs, m 2**e."""
     tempco = None
@@ -127,10 +107,17 @@ def crafted(rng):
 
 
 def main(root, natmod=None):
-    for folder in (root, natmod):
+    for folder in (root, root + "/tests/micropython", natmod):
         if folder and folder not in sys.path:
             sys.path.insert(0, folder)
+    from lcg import Rand as Lcg
     from shared import fixedpoint as fp
+
+    class Rand(Lcg):
+        def signed(self, n):
+            """+-v, v < 2**n, its sign from one more bit (this script's draw; lcg's signed is uniform)."""
+            v = self.bits(n)
+            return -v if self.bits(1) else v
 
     counts = [0, 0]                          # native calls, native answers
     real = fp._native_magnitude
