@@ -34,7 +34,7 @@ SCENARIOS = ((1000, 10, 2, (31831, 31831, 31831), None, "smooth", 400),
              (1000, 10, 2, (31831, 31831, 31831), (3000, 3000, 3000), "tampered", 700))
 
 
-def samples(rng, kind, window, n):
+def samples(rng, kind, window, n, short=False):
     """(x, y, z, t) window sums, None for a gap."""
     full = window << 23
     if kind == "edges":
@@ -42,7 +42,8 @@ def samples(rng, kind, window, n):
         for x in edges:
             for y in edges:
                 for z in edges:
-                    for w in (full - 1, -full, 0, -full, full - 1):   # five pushes a combination
+                    # five pushes a combination (three on a board)
+                    for w in ((full - 1, -full, 0) if short else (full - 1, -full, 0, -full, full - 1)):
                         yield (x, w, z, y) if w else (x, y, z, y)
         return
     p = [3000000 * window, -1500000 * window, 800000 * window]
@@ -127,7 +128,17 @@ def heap_locked(D, Rand):
     return errors, same == len(pushes) and state(dl) == state(ref)
 
 
-def main(root, natmod=None):
+def sizes(short):
+    """SCENARIOS' sample counts; short (the emulated boards, at a few MHz of emulation): a quarter
+    of each stream's, but all six of the switch's phases and two of the tampered's oversized sums."""
+    if not short:
+        return [sc[6] for sc in SCENARIOS]
+    return [sc[6] if sc[5] == "switch" else 400 if sc[5] == "tampered" else sc[6] // 4 for sc in SCENARIOS]
+
+
+def main(root, natmod=None, short=None):
+    if short is None:
+        short = sys.platform not in ("linux", "darwin", "win32")    # a board: rp2, qemu
     for folder in (root, root + "/tests/micropython", natmod):
         if folder and folder not in sys.path:
             sys.path.insert(0, folder)
@@ -151,7 +162,8 @@ def main(root, natmod=None):
     slow0 = None
     handed = 0          # the pushes the native push handed to Python, every scenario
     total = 0
-    for s, (rate, decim, window, taus, steps, kind, n) in enumerate(SCENARIOS):
+    for s, (rate, decim, window, taus, steps, kind, _) in enumerate(SCENARIOS):
+        n = sizes(short)[s]
         gc.collect()
         ref = D.Delag(window, native=False)
         twin = D.Delag(window) if native else None
@@ -163,7 +175,7 @@ def main(root, natmod=None):
         slow[0] = 0
         h = 0
         pushes = 0
-        for i, smp in enumerate(samples(rng, kind, window, n)):
+        for i, smp in enumerate(samples(rng, kind, window, n, short)):
             if kind == "switch" and i % 100 == 0:
                 # tau steps on and off, de-lag off and on (a reset), other taus
                 tt = (list(taus), list(taus), None, [725, 725, 725], list(taus), [160, 1, 31831])[i // 100 % 6]
@@ -203,4 +215,4 @@ def main(root, natmod=None):
 
 
 if __name__ == "__main__" and len(sys.argv) > 2:    # a board without argv imports it and calls main()
-    main(sys.argv[1], sys.argv[2] or None)
+    main(sys.argv[1], sys.argv[2] or None, len(sys.argv) > 3 and sys.argv[3] == "short")
