@@ -18,6 +18,9 @@ with shifts and summed (|sum| <= window * 2**23 <= 2**29 for window <= 64,
 inside the small-int range). A finished block goes into an array('i') ring as
 five ints (x, y, z, temperature sums, block number). A full ring drops the
 block and counts it; a block with a bad status header is discarded and counted.
+Where the board counts DRDY falls in hardware (hal.Board.count_drdy: a PIO state
+machine on rp2), the handler runs only on the `window` frames a block reads and
+accounts the `decim - window` before them at the first of those (`_shape[2]`).
 Where the board has drdy.mpy (device/native/drdy.c) and its HAL a `drdy_bus`,
 `isr` is the same handler in C, which the hard IRQ calls without entering the
 bytecode VM; `_isr` is the reference, and the handler everywhere else.
@@ -101,7 +104,10 @@ class Acquisition:
         self.samples = 0      # decimated samples delivered by poll
         self.gaps = 0         # discontinuities seen in the block numbers
         self._last = -1
-        self._shape = array("i", bytes(4 * 2))   # decim, decim - window: what the native handler reads
+        # decim, decim - window, 1 where the board counts the frames before the window (the
+        # handler sees the window's alone): what the native handler reads
+        self._shape = array("i", bytes(4 * 3))
+        self.counter = None   # "pio" where the board counts them (hal.Board.count_drdy)
         self.set_decimation(decim, window)
         # The handler attach_drdy gets: the native one where the module loads and the HAL hands
         # over its chip selects and SPI read (hal.Board.drdy_bus), else _isr, bound once
@@ -123,6 +129,11 @@ class Acquisition:
         self._first = decim - window
         self._shape[0] = decim
         self._shape[1] = self._first
+        # the counter restarts before the counts do: its first interrupt is a window away
+        count = getattr(self.board, "count_drdy", None)
+        counted = count is not None and self._first > 0 and count(self._first, window)
+        self._shape[2] = 1 if counted else 0
+        self.counter = "pio" if counted else None
         self.reset()
 
     def reset(self):
@@ -151,7 +162,8 @@ class Acquisition:
         """Its part of `status`: the counters of the DRDY path and the ring."""
         st = self.state
         return {"frames": st[FRAMES], "overflow": st[OVERFLOW], "missed": st[MISSED], "badsync": st[BADSYNC],
-                "discarded": st[DISCARDED], "gaps": self.gaps, "samples": self.samples, "drdy": self.handler}
+                "discarded": st[DISCARDED], "gaps": self.gaps, "samples": self.samples, "drdy": self.handler,
+                "drdy_counter": self.counter}
 
     # ****** main loop, polled DRDY only ******
     def account_gap(self, frames):
@@ -197,6 +209,12 @@ class Acquisition:
         n = st[FRAMES]
         st[FRAMES] = n + 1 if n != _WRAP else 0
         p = st[_PHASE]
+        if p < self._first and self._shape[2]:
+            # the board counted the frames before the window: the first of the window's is here
+            k = self._first - p
+            n = st[FRAMES]
+            st[FRAMES] = n + k if n <= _WRAP - k else n - _WRAP - 1 + k
+            p = self._first
         q = p + 1
         if q == self.decim:
             q = 0

@@ -75,6 +75,14 @@ class Board:
         """
         raise NotImplementedError("attach_drdy")
 
+    def count_drdy(self, skip, window):
+        """Count `skip` DRDY falls of every `skip + window` in hardware and call the handler
+        attach_drdy gets only on the other `window`, from the next fall after each attach (or
+        after this call, if one is attached); True where the board does (the handler then
+        accounts the skipped conversions itself: acquisition.py). Without a hardware counter,
+        False: the handler sees every conversion."""
+        return False
+
     # ****** time ******
     def ticks_ms(self):
         raise NotImplementedError("ticks_ms")

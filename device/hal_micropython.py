@@ -1,4 +1,4 @@
-"""MicroPython HAL (rp2, stm32, esp32): machine.SPI mode 1, DRDY on Pin.irq.
+"""MicroPython HAL (rp2, stm32, esp32): machine.SPI mode 1, DRDY on Pin.irq (rp2: a PIO counter).
 
 The contract is hal.py. DRDY uses a hard IRQ where the port
 accepts `hard=True` (rp2, stm32); esp32's Pin.irq has no `hard` argument and
@@ -7,6 +7,12 @@ ring absorbs). USB serial is sys.stdin/sys.stdout with Ctrl-C disabled while
 the app runs, so a stray 0x03 on the wire cannot stop the instrument; the
 `repl` command ends the app and turns Ctrl-C back on (hand_back), so mpremote
 can take the line without the button.
+
+On rp2 a PIO state machine counts the DRDY falls the boxcar does not read (count_drdy,
+_drdy_counter): the hard IRQ, about 1.5 k cycles a conversion on an RP2040 before any handler
+code (the port's GPIO interrupt and MicroPython's dispatch), then comes only for the `window`
+conversions of every `decim` that are read (2 in 10 by default), from the state machine's
+IRQ flag (PIO0_IRQ_0) instead of the pin's.
 
 The watchdog (RP2040 only, see _rp2040): the app starts machine.WDT and feeds it
 once a main-loop pass, so a hung loop resets the board (bootguard.py counts the
@@ -67,6 +73,38 @@ def keep_watchdog_fed():
         _feed_from_timer()
 
 
+def _drdy_counter():
+    """The PIO program that counts DRDY falls (rp2 only; None elsewhere). Fed two words before
+    it starts: skip - 1 and window - 1 (skip >= 1, window >= 1). A fall is a high then a low
+    level on the pin (its in_base): the ADS1292's DRDY rises before each conversion ends,
+    4 tCLK ahead at the latest if the last one was not read [DS §8.5.1.5]."""
+    try:
+        import rp2
+    except ImportError:
+        return None
+    asm = rp2.asm_pio
+
+    @asm()
+    def counter():
+        pull()                  # skip - 1
+        mov(y, osr)
+        pull()                  # window - 1: stays in the OSR
+        wrap_target()
+        mov(x, y)
+        label("skip")
+        wait(1, pin, 0)
+        wait(0, pin, 0)         # a conversion the boxcar does not read
+        jmp(x_dec, "skip")
+        mov(x, osr)
+        label("read")
+        wait(1, pin, 0)
+        wait(0, pin, 0)
+        irq(rel(0))             # one it reads: the handler, hard IRQ
+        jmp(x_dec, "read")
+        wrap()
+    return counter
+
+
 try:
     micropython.alloc_emergency_exception_buf(100)  # a traceback from the ISR, not a second fault
 except AttributeError:  # a port without the emergency buffer (the unix port)
@@ -99,6 +137,9 @@ class Board(hal.Board):
         self._rbuf = bytearray(SERIAL_CHUNK)
         self._one = bytearray(1)
         self._wdt = None
+        self._handler = None       # the DRDY handler attached (None: none)
+        self._count = None         # (skip, window) the PIO counts (count_drdy), None: Pin.irq
+        self._sm = None            # the counting state machine, once made
         # App.wait calls idle() on every conversion: the C function itself, not a method around it
         self.idle = machine.idle
         try:
@@ -162,10 +203,45 @@ class Board(hal.Board):
     def attach_drdy(self, handler, rate=0, on_gap=None):
         # rate and on_gap are for polling HALs: a hard IRQ sees every DRDY,
         # and during a main-loop stall the ring absorbs the samples (docs/firmware.md)
+        self._handler = handler
+        if self._sm is not None:
+            self._sm.active(0)
+            self._sm.irq(None)
+        if handler is not None and self._count is not None:
+            self._drdy.irq(handler=None)
+            self._start_counter(handler)
+            return
         try:
             self._drdy.irq(handler=handler, trigger=machine.Pin.IRQ_FALLING, hard=True)
         except TypeError:  # esp32: no hard IRQs; the handler is scheduled
             self._drdy.irq(handler=handler, trigger=machine.Pin.IRQ_FALLING)
+
+    def count_drdy(self, skip, window):
+        # hal.Board.count_drdy: on rp2, a PIO state machine (_drdy_counter)
+        if skip < 1 or (self._sm is None and not self._make_counter()):
+            self._count = None
+        else:
+            self._count = (skip, window)
+        if self._handler is not None:
+            self.attach_drdy(self._handler)     # restarted: from the next fall on
+        return self._count is not None
+
+    def _make_counter(self):
+        prog = _drdy_counter()
+        if prog is None:
+            return False
+        import rp2
+        self._sm = rp2.StateMachine(0, prog, in_base=self._drdy)
+        self._prog = prog
+        return True
+
+    def _start_counter(self, handler):
+        sm = self._sm
+        sm.init(self._prog, in_base=self._drdy)    # stopped, FIFOs empty, at the program's start
+        sm.put(self._count[0] - 1)
+        sm.put(self._count[1] - 1)
+        sm.irq(handler, hard=True)
+        sm.active(1)
 
     # time
     def ticks_ms(self):
@@ -205,7 +281,7 @@ class Board(hal.Board):
         return _rp2040() and bool(machine.mem32[_WATCHDOG_REASON] & _TIMER)
 
     def hand_back(self):
-        self._drdy.irq(handler=None)   # the REPL has no use for the DRDY handler
+        self.attach_drdy(None)         # the REPL has no use for the DRDY handler
         try:
             micropython.kbd_intr(3)    # Ctrl-C interrupts again: how mpremote gets in
         except AttributeError:

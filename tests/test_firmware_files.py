@@ -26,7 +26,7 @@ from desktop.firmware.image import build_image
 # What each runtime provides built in (C modules), as the firmware imports them.
 BUILTIN = {
     "common": {"array", "binascii", "gc", "json", "math", "micropython", "os", "select", "struct", "sys", "time"},
-    "micropython": {"machine"},
+    "micropython": {"machine", "rp2"},    # rp2: the rp2 port's own (its PIO), imported guardedly
     "circuitpython": {"board", "busio", "digitalio", "keypad", "storage", "supervisor", "usb_cdc"},
     "sim": set(),
 }

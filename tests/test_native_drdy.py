@@ -6,7 +6,10 @@ interpreter with the drdy.mpy deploy would pick for it (the x64 build on the 64-
 builds, x86 on the 32-bit one), and on the emulated Pico (armv6m) and Cortex-M3 (armv7m):
 random frames and the +-2**23 codes, bad status headers on either chip, counters near the
 2**30 wrap, a small ring that fills and overflows, polled gaps (account_gap), a change of
-boxcar mid-run, decim/window with window == decim and window 1. After every conversion the two
+boxcar mid-run, decim/window with window == decim and window 1; and a board that counts the
+conversions before the window (hal.Board.count_drdy, rp2's PIO counter), where both handlers run
+on the window's alone and must then hold what a handler fed every conversion holds (the same
+samples, FRAMES across the wrap). After every conversion the two
 handlers' state, acc and ring arrays and their calls on the bus must be the same, and the
 final arrays and a checksum of every intermediate one the same as CPython's pure-Python
 handler gives. The native handler must be the one attached where the module loads (a native

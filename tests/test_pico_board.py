@@ -144,3 +144,22 @@ def test_the_stand_ins_refusals_are_the_rp2_port_s_own(pico):
         assert message in r.stdout + r.stderr, (snippet, r.stdout + r.stderr)
     out = mpremote(board.port, "exec", "import time; print(time.time() // 86400)")
     assert int(out) == 1609459200 // 86400, out
+
+
+def test_pio_runs_between_its_waits_and_a_program_that_never_waits_is_stopped(pico):
+    """The runner runs an enabled state machine to its next wait whenever the core touches its
+    PIO block or an input pin changes (thing 5 in runner.mjs: fluxcal's DRDY counter waits on
+    DRDY's edges). An echo through the FIFOs answers at once; a loop with no wait, which runs
+    free on a real RP2040, is stopped with a line on the runner's stderr, not left to run in
+    rp2040js's own timer slices apart from the emulated clock."""
+    board = pico()
+    out = mpremote(board.port, "exec", "import rp2\n"
+                   "@rp2.asm_pio()\n"
+                   "def echo():\n pull()\n mov(isr, invert(osr))\n push()\n"
+                   "sm = rp2.StateMachine(0, echo)\nsm.active(1)\n"
+                   "print([sm.get() for v in (0, 7, 0x12345678) if sm.put(v) is None])\n"
+                   "@rp2.asm_pio()\n"
+                   "def spin():\n wrap_target()\n nop()\n wrap()\n"
+                   "rp2.StateMachine(1, spin).active(1)\nprint('spun')")
+    assert "[4294967295, 4294967288, 3989547399]" in out and "spun" in out, out
+    board.wait_event("PIO0: a state machine ran 256 instructions without waiting: stopped", timeout=30)

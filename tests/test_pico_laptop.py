@@ -154,6 +154,11 @@ def test_the_laptop_commands_a_power_cycle_and_the_watchdog_on_the_emulated_pico
         # |h_c|, the DRDY handler (a hard IRQ calling the HAL's Pins and SPI read) and the spike
         # screen's push run in C
         assert (st["sums"], st["magnitude"], st["drdy"], st["screen"]) == ("native",) * 4, st
+        # a PIO state machine counts the 3 conversions of every 5 the boxcar does not read; the
+        # handler accounts them: a block's 5 conversions for each sample read (and the ring's
+        # and the open block's not yet read), none missed
+        assert st["drdy_counter"] == "pio" and st["missed"] == 0, st
+        assert 5 * st["samples"] <= st["frames"] < 5 * (st["samples"] + 128 + 1), st
         ok(fluxcal("pull-cal", "-o", tmp_path / "after.json", "--port", port, *SLOW))
         before, after = (json.loads((tmp_path / n).read_text()) for n in ("device.json", "after.json"))
         assert before["matrix"] == after["matrix"] and before["offset"] == after["offset"]

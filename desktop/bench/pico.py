@@ -14,7 +14,8 @@ What, on one emulated Pico (idle time jumped, the operator following the LED):
 - heap: status's mem_free after boot, at the end of each window and its lowest sample in it;
 - the load by part: the same session again with the firmware started from the REPL by
   micropython-scripts/pico_parts.py, which names the part that runs on the runner's profiling
-  port (desktop/devicesim/pico/parts.mjs); the DRDY handler and the other interrupts are counted
+  port (desktop/devicesim/pico/parts.mjs); the DRDY handler (PIO0's interrupt, on the conversions
+  the boxcar reads: hal_micropython.Board.count_drdy) and the other interrupts are counted
   by the runner from the exceptions themselves. The profiled total beside the plain one is what
   the profiling costs. Beside each: the Cortex-M3 estimate (pico_compare.py) and the ratio;
 - the spin's PTP of |B| against the same session on the `micropython` runtime;
@@ -39,7 +40,8 @@ CYCLE_NS = 8          # 125 MHz
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "micropython-scripts", "pico_parts.py")
 # the runner's keys (parts.mjs) and what they are: part N as pico_parts.py numbers them,
 # irqE the exception E (16 + the RP2040's IRQ number)
-PARTS = [("irq29", "DRDY handler (hard IRQ 13, its SPI reads included)"),
+PARTS = [("irq23", "DRDY handler (hard IRQ 7, PIO0's: its state machine counts the conversions not read; SPI reads included)"),
+         ("irq29", "DRDY handler on the pin (hard IRQ 13, GPIO bank 0: where no PIO counts)"),
          ("part1", "spike screen"),
          ("part2", "calibration gates"),
          ("part3", "add()"),

@@ -18,7 +18,7 @@ CLOCK_HZ = 125e6
 # the RP2040's exception numbers (16 + IRQ) the runner may name (pico/parts.mjs)
 EXCEPTIONS = {"irq11": "SVCall", "irq14": "PendSV", "irq15": "SysTick", "irq16": "timer alarm 0",
               "irq17": "timer alarm 1", "irq18": "timer alarm 2", "irq19": "timer alarm 3",
-              "irq21": "USB", "irq29": "GPIO bank 0"}
+              "irq21": "USB", "irq23": "PIO0 IRQ 0", "irq29": "GPIO bank 0"}
 CPI = CYCLES_PER_M3_INSTRUCTION["Cortex-M0+"][0]
 WIRE_CYCLES = WIRE_US * 1e-6 * CLOCK_HZ
 SOLVE_EVERY_S = import_device("config").SCHEMA["solve_every_s"][0]

@@ -10,7 +10,9 @@
 // status headers (BADSYNC, _SPOIL, LASTBAD), block completion (BLOCKS, DISCARDED), and the ring
 // (five ints a block, HEAD, OVERFLOW), all in the same array('i') objects, so the main loop's
 // reader (Acquisition.poll, account_gap, status) does not know which handler ran. shape is an
-// array('i') of [decim, decim - window] that Acquisition.set_decimation keeps current.
+// array('i') of [decim, decim - window, counted] that Acquisition.set_decimation keeps current;
+// counted: the board counts the frames before the window (a PIO state machine on rp2,
+// hal_micropython.Board.count_drdy) and the handler runs on the window's frames alone.
 // [DS] = ADS1292 datasheet SBAS502C.
 //
 // The frames are read as the HAL reads them (hal_micropython.Board.spi_readinto): drdy_bus is
@@ -38,6 +40,7 @@
 // shape array indices
 #define DECIM (0)
 #define FIRST (1)               // decim - window: the first frame of a block that is read
+#define COUNTED (2)             // 1: the frames before FIRST were counted by the board
 
 #define WRAP (0x3FFFFFFF)       // counters wrap from 2^30 - 1 to 0 (a small int on every port)
 #define SLOTS (5)               // a ring slot: x, y, z, temperature sums, block number
@@ -81,7 +84,7 @@ static mp_obj_t handler_make_new(const mp_obj_type_t *type, size_t n_args, size_
     self->state = ints_of(args[0], NSTATE, NULL);
     self->acc = ints_of(args[1], 4, NULL);
     self->ring = ints_of(args[2], SLOTS, &ring_ints);
-    self->shape = ints_of(args[3], 2, NULL);
+    self->shape = ints_of(args[3], 3, NULL);
     // len(ring) / SLOTS, by counting: the Cortex-M0+ has no divide, and libgcc is not linked
     self->ring_frames = 0;
     while ((size_t)(self->ring_frames + 1) * SLOTS <= ring_ints) {
@@ -141,6 +144,12 @@ static mp_obj_t handler_call(mp_obj_t self_in, size_t n_args, size_t n_kw, const
     int32_t *st = self->state;
     st[FRAMES] = next_count(st[FRAMES]);
     int32_t p = st[PHASE];
+    if (p < self->shape[FIRST] && self->shape[COUNTED]) {
+        // the board counted the frames before the window: the first of the window's is here
+        int32_t k = self->shape[FIRST] - p, n = st[FRAMES];
+        st[FRAMES] = n <= WRAP - k ? n + k : n - WRAP - 1 + k;
+        p = self->shape[FIRST];
+    }
     int32_t q = p + 1;
     if (q == self->shape[DECIM]) {
         q = 0;

@@ -8,7 +8,10 @@
 # Frames come from a fixed 32-bit LCG (lcg.py beside it, not `random`): random codes and the +-2**23 extremes,
 # bad status headers on either chip, counters started near the 2**30 wrap, a small ring read
 # now and then (so it fills and overflows), account_gap and set_decimation between
-# conversions, decim/window combinations with window == decim and window 1. Prints one line
+# conversions, decim/window combinations with window == decim and window 1. Then the board
+# counts the frames before the window (hal.Board.count_drdy, a PIO counter on rp2): the handlers
+# run on the window's conversions alone, and after each of them their arrays must be those of a
+# handler fed every conversion (`lagged`: the conversions where they were not). Prints one line
 # per scenario (its final arrays and a checksum of every intermediate one, as the pure-Python
 # handler gives them: compared with CPython's), then one JSON line: the handler's path, the
 # conversions where the two handlers differed, and what the heap-locked run raised.
@@ -21,20 +24,27 @@ WRAP = (1 << 30) - 1
 # (decim, window, ring_frames, conversions)
 SCENARIOS = ((10, 2, 4, 700), (10, 10, 3, 300), (1, 1, 4, 200), (64, 64, 8, 400), (64, 1, 2, 500),
              (7, 3, 5, 400), (2, 1, 1, 60), (3, 2, 16, 300))
+# the board counting: (decim, window, ring_frames, conversions); mid-run a boxcar of
+# window == decim (nothing counted), then the first again
+COUNTED = ((10, 2, 4, 500), (64, 1, 2, 400), (7, 3, 5, 300))
 
 
 class Board:
     """Serves preset frames in turn through spi_readinto (the pure-Python handler) and, with
     `bus`, through drdy_bus (the native one), logging the calls into a preallocated bytearray."""
 
-    def __init__(self, frames, bus):
+    def __init__(self, frames, bus, counts=False):
         self.frames = frames          # 18 bytes a conversion: chip 0's frame, chip 1's
+        self.counts = counts          # counts the frames before the window (count_drdy)
         self.k = 0                    # the next conversion's frame pair
         self.chip = 0
         self.log = bytearray(len(frames) // 3)     # six calls a conversion read
         self.n = 0
         if bus:
             self.drdy_bus = [self.cs0, self.cs1, self.readinto]
+
+    def count_drdy(self, skip, window):
+        return self.counts
 
     def _note(self, what):
         self.log[self.n] = what
@@ -100,8 +110,8 @@ def frames(rng, n):
     return out
 
 
-def setup(A, decim, window, ring_frames, fs, plan, native):
-    board = Board(fs, native)
+def setup(A, decim, window, ring_frames, fs, plan, native, counts=False):
+    board = Board(fs, native, counts)
     acq = A.Acquisition(board, decim, window, ring_frames)
     for k in (A.FRAMES, A.BADSYNC, A.BLOCKS, A.DISCARDED, A.OVERFLOW):
         acq.state[k] = WRAP - plan[0] - k
@@ -118,6 +128,56 @@ def step(acq, i, plan, got):
     acq.isr(None)
     if i % plan[3] == 0:
         acq.poll(lambda x, y, z, t: got.append((x, y, z, t)), 2)
+
+
+def step_counted(acq, i, plan, got, read):
+    """Conversion i where the board counts: a new boxcar where the plan says (the counter
+    restarts with it), the handler only where the conversion is `read`, a read of the ring."""
+    if i in plan[2]:
+        acq.set_decimation(*plan[2][i])
+    if read:
+        acq.isr(None)
+    if i % plan[3] == 0:
+        acq.poll(lambda x, y, z, t: got.append((x, y, z, t)), 2)
+
+
+def counted(A, rng, native):
+    """COUNTED's scenarios: lines as main's, and the conversions where a handler differed."""
+    differed = 0
+    lines = []
+    for s, (decim, window, ring_frames, n) in enumerate(COUNTED):
+        every = acq = twin = fs = got = None
+        gc.collect()          # the last scenario's frames go first: Cortex-M3's heap is small
+        fs = frames(rng, n)
+        plan = (s, {}, {n // 3: (5, 5), 2 * n // 3: (decim, window)}, 3 + s)
+        every = setup(A, decim, window, ring_frames, fs, plan, False)[0]     # fed every conversion
+        acq = setup(A, decim, window, ring_frames, fs, plan, False, True)[0]
+        twin = setup(A, decim, window, ring_frames, fs, plan, True, True)[0] if native else None
+        got = ([], [], [])
+        h = 0
+        lagged = 0
+        d, w, phase = decim, window, 0
+        for i in range(n):
+            if i in plan[2]:
+                d, w = plan[2][i]
+                phase = 0                 # the counter restarts: its next fall is a block's first
+            read = phase >= d - w
+            phase = phase + 1 if phase + 1 < d else 0
+            step(every, i, plan, got[0])
+            step_counted(acq, i, plan, got[1], read)
+            h = checksum(h, acq)
+            if twin is not None:
+                step_counted(twin, i, plan, got[2], read)
+                if not same(acq, twin):
+                    differed += 1
+            if not same(acq, every):
+                lagged += 1
+                if read:
+                    differed += 1         # after a read the counted handler has caught up
+        if acq._shape[2] != 1 or acq.counter != "pio" or got[1] != got[0] or (twin is not None and got[2] != got[0]):
+            differed += 1
+        lines.append(json.dumps([decim, window, "counted", lagged, list(acq.state), list(acq.ring), got[1][-3:], h]))
+    return lines, differed
 
 
 def checksum(h, acq):
@@ -200,6 +260,10 @@ def main(root, natmod=None):
                 differed += 1
         print(json.dumps([decim, window, list(acq.state), list(acq.acc), list(acq.ring), got[-3:], h]))
     acq = twin = board = fs = got = got2 = None
+    lines, d = counted(A, rng, native)
+    differed += d
+    for line in lines:
+        print(line)
     gc.collect()
     locked = heap_locked(A, Rand) if native and not cpython else None
     print(json.dumps({"path": "native" if native else "python", "differed": differed, "heap_locked": locked}))

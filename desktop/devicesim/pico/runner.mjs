@@ -21,6 +21,10 @@
 //  4. The watchdog (machine.reset() uses it) has no reset action: the chip is re-created here,
 //     with the watchdog's REASON register kept (TIMER or FORCE, as through a real watchdog reset).
 //     Its count running out (machine.WDT not fed) re-armed its alarm at 0 ns forever: stopped here.
+//  5. PIO: rp2040js runs a PIO block in setTimeout slices of 1000 instructions, apart from the
+//     emulated clock, and steps disabled state machines too; here the enabled ones run when
+//     something they wait on may have changed (an input pin, the block's registers, its FIFOs,
+//     CTRL) until each waits again: pioOnEvents below.
 // The flash is made writable by patching the boot ROM's flash_range_erase / flash_range_program
 // to BKPT and doing the erase (fill 0xff) and program (AND, as NOR flash) in onBreak.
 import fs from 'node:fs';
@@ -45,6 +49,8 @@ const { RP2040, USBCDC } = await esm('index.js');
 const { SimulationClock } = await esm('clock/simulation-clock.js');
 const { WorldBridge } = args.world ? await import('./pins.mjs') : {};
 const { Parts } = await import('./parts.mjs');
+const { RPPIO } = await esm('peripherals/pio.js');
+const { GPIOPin } = await esm('gpio-pin.js');
 
 // ****** the flash file: the whole 2 MiB, firmware image rewritten at each start ******
 function loadFlash() {
@@ -188,6 +194,47 @@ function flashOp(code) {
   }
   saveSoon();
 }
+
+// ****** thing 5: PIO in step with the emulated clock ******
+// A state machine's program between two waits takes nanoseconds at clk_sys; it is run to its next
+// wait at once, when an input level changes (fluxcal's DRDY counter waits on DRDY's edges: a fall
+// here sets the pin high and low at the same instant, and each level is seen) or the core touches
+// the block. A program that does not wait within PIO_SETTLE instructions runs free on real
+// hardware, which this runner does not model: it is stopped, with a line on stderr.
+const PIO_SETTLE = 256;
+function settlePio(pio) {
+  if (pio.stopped) return;
+  const machines = pio.machines.filter((m) => m.enabled);
+  for (let i = 0; i < PIO_SETTLE; i++) {
+    let waiting = true;
+    for (const m of machines) {
+      m.step();
+      if (m.waiting) m.checkWait();
+      waiting &&= m.waiting;
+    }
+    pio.checkChangedPins();
+    if (waiting) return;
+  }
+  say(`PIO${pio.index}: a state machine ran ${PIO_SETTLE} instructions without waiting: stopped (this runner runs PIO between waits only)`);
+  pio.stop();
+}
+function pioOnEvents() {
+  RPPIO.prototype.run = function run() { settlePio(this); };     // CTRL enabled a machine
+  for (const name of ['readUint32', 'writeUint32']) {
+    const access = RPPIO.prototype[name];
+    RPPIO.prototype[name] = function (offset, value) {
+      const result = access.call(this, offset, value);
+      settlePio(this);
+      return result;
+    };
+  }
+  const setInput = GPIOPin.prototype.setInputValue;
+  GPIOPin.prototype.setInputValue = function (value) {
+    setInput.call(this, value);
+    for (const pio of this.rp2040.pio) settlePio(pio);
+  };
+}
+pioOnEvents();
 
 // ****** the pins the host drives (the button, DRDY...): level kept across resets ******
 const inputLevels = {};
