@@ -285,7 +285,8 @@ class Acquisition:
         """Deliver up to `limit` samples from the ring in order; return how many.
 
         on_sample(sx, sy, sz, st) gets the integer boxcar sums (units: codes x
-        window); on_gap() comes first when block numbers jumped.
+        window); on_gap(missing) comes first when block numbers jumped (missing: the blocks
+        between, 1 for a polled DRDY's usual gap, survey.py Output.gap).
         """
         st = self.state
         ring = self.ring
@@ -305,7 +306,7 @@ class Acquisition:
             if self._last >= 0 and blk != (self._last + 1 if self._last != _WRAP else 0):
                 self.gaps += 1
                 if on_gap is not None:
-                    on_gap()
+                    on_gap((blk - self._last - 1) & _WRAP)
             self._last = blk
             n += 1
             self.samples += 1

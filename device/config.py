@@ -67,9 +67,8 @@ SCHEMA = {
     # what is left: the configured tau's relative uncertainty response_tol (gates.py gate_dps)
     "delag": (True, "bool", 0, 0),
     # de-lag by the whole response, the ADC's sinc3 and the boxcar included, and so every sensor,
-    # a fast one too (shared/delag.py response_tau_s). "auto": where the board's DRDY is an
-    # interrupt (hal.py polls_drdy False); not where it is polled (CircuitPython), as after a gap
-    # the de-lag waits for four samples, which a polled DRDY with its frequent gaps cannot spare
+    # a fast one too (shared/delag.py response_tau_s). "auto": on, where the board's DRDY is an
+    # interrupt and where it is polled (CircuitPython: its one-sample gaps are bridged, Delag.join)
     "delag_adc": ("auto", "bool_auto", 0, 0),
     "response_tol": (0.05, "float", 0.0, 1.0),
     # de-lagged: estimate tau at the finish (shared/tausums.py; four more sums per accepted

@@ -4,6 +4,7 @@
     if sc.push(sx, sy, sz, st):      # one sample late: judges the one before
         use(sc.x, sc.y, sc.z, sc.t)
     sc.reset()                       # after a gap in the stream: neighbours are not neighbours
+    sc.bridge(on_joined)             # or, one sample lost: judge the one held across it
 
 A flipped data bit (a noisy SPI line: [DS] checks nothing but the status nibble)
 moves one frame's code by 2**k; in a boxcar sum it shows as one sample off the
@@ -42,6 +43,15 @@ of its 13 bits could round apart on a 30-bit float).
 Clipped: a boxcar of full-scale codes ([DS 8.3.8] saturates at 0x7FFFFF / 0x800000)
 means the sensor or the PGA gain exceeds the ADC's range; the sample is not
 the field (session.py names it `clipped` when it happens during a calibration).
+
+One sample lost (a board that polls DRDY loses one block every few: CircuitPython), the
+screen need not let go of the two it holds: `bridge` doubles c - p, so that the next push
+judges c against p and n two periods on by the bend of the three, 2 (c - p) - (n - c) (3 a T^2
+where an even spacing's is a T^2: learnt as a third of it), with 3 times the allowance (a
+turn's apex stands out by a T^2 so, twice an even spacing's), and halves n - c after it (the
+next judgement's c - p, per period: its bend reads 1.5 times, and a spike on that sample stands
+out by half). Then on_joined(True) says that c came out before the hole (the de-lag bridges it:
+shared/delag.py Delag.join); False where c did not (a spike or clipped: the screen starts again).
 
 Native: where deploy installed screenc.mpy (device/native/screenc.c; MicroPython boards of
 a matching architecture), a Screen's push is in C for the common case (a sample that is not
@@ -136,6 +146,48 @@ class Screen:
         st[7] = 0
         st[8] = self._spike
         st[9] = -1
+
+    def held(self):
+        """Samples held: 0, 1 or 2 (p and c: the next push judges c)."""
+        return self._st[7]
+
+    def bridge(self, on_joined):
+        """One sample was lost after the last pushed: judge the one held (c) across the hole at the
+        next push, then on_joined(c came out). False (nothing changed) unless two are held."""
+        st = self._st
+        if st[7] != 2:
+            return False
+        st[0] <<= 1       # c - p as the two periods from c to n
+        st[1] <<= 1
+        st[2] <<= 1
+        self._joined = on_joined
+        self._fast = self.push
+        self.push = self._across
+        return True
+
+    def _across(self, x, y, z, t):
+        """push, once, after a lost sample (bridge)."""
+        self.push = self._fast
+        st = self._st
+        thr = st[8]
+        pend = st[9]
+        sp = self._spike
+        # c at a turn's apex stands out from n two periods on by 4 a T^2 / 2, from p doubled by
+        # a T^2 (twice the a T^2 / 2 of an even spacing): judged with 3 times the allowance
+        st[8] = sp + 3 * (thr - sp)
+        ok = self._fast(x, y, z, t)
+        # the allowance learns as push does (Screen.push: the step (p - allow) / 16), from thr
+        st[8] = thr + ((pend + sp - thr + 8) >> 4) if ok and pend >= 0 else thr
+        if ok:
+            st[0] >>= 1   # n - c over two periods: per period, as the next judgement's c - p
+            st[1] >>= 1
+            st[2] >>= 1
+            if st[9] >= 0:
+                st[9] //= 3   # 2 (c - p) - (n - c) is 3 a T^2 where 2c - p - n is a T^2
+        else:
+            self.reset()
+        self._joined(ok)
+        return ok
 
     def allowance(self):
         """TYPICAL * typical, in units of 2**-UNIT_BITS nT (an int)."""

@@ -55,7 +55,7 @@ class Session:
         self.fit = EllipsoidFit()
         self.cov = Coverage(cfg["cells"], cfg["cell_cap"])
         self.c = [int(v) for v in self.prior.offset] if self.prior is not None else [0, 0, 0]
-        # polled: the board polls DRDY (hal.py polls_drdy), which delag_adc "auto" reads as off
+        # polled: the board polls DRDY (hal.py polls_drdy; shared/delag.py adc_delagged)
         self.gates = g = Gates(cfg, self.fit, self.cov, window, period_ms, self.c, polled)
         # the response the samples are de-lagged with (survey.py applies it), per axis in whole
         # us, and the record the calibration carries it in; None: not de-lagged (gates.py)

@@ -5,7 +5,7 @@ the data/raw events, the lines of the rotating flash log: flashlog.py).
     out.configure(cfg, sample_hz)    # the spike screen, the survey averager, the log (config.py)
     out.use(cal)                     # the calibration in force (None: uncalibrated)
     out.sample(rx, ry, rz, rt)       # acq.poll's on_sample: screen -> session -> |h_c| -> survey
-    out.gap()                        # acq.poll's on_gap
+    out.gap(missing)                 # acq.poll's on_gap
     out.status()                     # its part of `status`
 
     sv = Survey(cfg, window, decim_rate_hz)
@@ -211,11 +211,18 @@ class Output:
         self.exact_blk = ExactCorrection(self.cal, w * self.survey.per_block, tau) if cal is not None else None
 
     # ****** per sample: the DRDY ring's reader calls these ******
-    def gap(self):
+    def gap(self, missing=0):
+        # one sample lost (a polled DRDY's usual gap) while de-lagging: the screen judges across
+        # it and the de-lag fills it (screen.py bridge, shared/delag.py join), else both restart
+        s = self.session
+        dl = self.delag
+        dl.on_hole = None if s is None else s.break_chain
+        if missing == 1 and self._delag_on and dl.can_join() and self.screen.bridge(dl.join):
+            return
         self.screen.reset()
-        self.delag.reset()
-        if self.session is not None:
-            self.session.break_chain()
+        dl.reset()
+        if s is not None:
+            s.break_chain()
 
     def sample(self, rx, ry, rz, rt):
         sc = self.screen
