@@ -329,15 +329,20 @@ class Session:
         rms = d.get("rms")
         if pe is not None and rms is not None:
             import residual_stats
-            from shared.honest import correlation_time, honest_error, systematic_floor
+            from shared.honest import correlation_time, delag_share, honest_error, systematic_floor
             means, counts = residual_stats.batch_means(self.gates.batches, cal, self.tau_t)
-            tau = correlation_time(means, counts, rms)
+            # the de-lag term's noise telescopes: the rest of the rms is what the fit feels
+            k = 0.0 if self.response is None else self.response["tau_s"][0] * 1000.0 / (12.0 * self.period_ms)
+            share = delag_share(rms, self.white, k)
+            tau = correlation_time(means, counts, rms * math.sqrt(share))
             pinned = d.get("mode") in (QUICK, RESHAPED)   # the field kept from the one in force
             floor = systematic_floor(rms, self.white) if pinned and self.white is not None else 0.0
             d["tau_int"] = round(tau, 2)
             d["predicted_error_white"] = pe
-            if tau != 1.0 or floor > pe:
-                d["predicted_error"] = honest_error(pe, d.get("prior_error"), tau, floor)
+            if share < 1.0:
+                d["delag_share"] = round(share, 4)
+            if tau * share != 1.0 or floor > pe:
+                d["predicted_error"] = honest_error(pe, d.get("prior_error"), tau * share, floor)
                 if floor:
                     d["systematic_floor"] = round(floor, 4)
         if self.response is not None and d.get("predicted_error") is not None:

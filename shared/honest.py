@@ -1,9 +1,10 @@
 """The honest predicted error: one function for the board and the laptop.
 
-    from shared.honest import batch_length, correlation_time, systematic_floor, honest_error
+    from shared.honest import batch_length, correlation_time, delag_share, systematic_floor, honest_error
     b = batch_length(n)                         # samples per batch for n samples in time order
-    tau = correlation_time(means, counts, rms)  # from the residuals' batch means, nT
-    pe = honest_error(white_pred, prior_error, tau, floor)
+    share = delag_share(rms, white, k)          # what of rms^2 is not a de-lag term's noise
+    tau = correlation_time(means, counts, rms * share ** 0.5)  # from the residuals' batch means, nT
+    pe = honest_error(white_pred, prior_error, tau * share, floor)
 
 The core's predicted full-sphere error (shared.predicted) assumes independent
 residuals. A sensor that lags the turn, a field that wanders or iron that moves
@@ -36,18 +37,25 @@ read 43-62 (median), of tau 399 in 30,000, 360; the Mag648 turned at 0.1 rev/s
 with its lag not undone, 4.1 nT predicted against 4.3 nT real
 (tests/test_device_slow_sensor.py).
 
-Residuals whose sum cancels read tau < 1, and then the error is narrowed. A de-lagged
-sample carries the derivative's noise k (8 (n_+1 - n_-1) - (n_+2 - n_-2)), 3 times a
-sample's own for the Mag648 (shared/delag.py), which telescopes along a run of
-samples: it is in the rms the core counts as independent but hardly in a fitted
-parameter. Batch means see that: the Mag648's read tau 0.09-0.24, and the core's
-figure was 1.9-3.3 times the real full-sphere error. Only the shortest batches'
-tau, under white residuals' 0.6 % point, narrows it, and only to its upper 99.4 %
-bound (tau / that point: 0.12 in 18 batches gives 0.35; their ends, where the
-differences do not cancel, make short batches read high too), and no lower than
-the longer batches read, so that the narrowed figure errs on the side of too large.
-White residuals are narrowed about once in a hundred (9 of 1,000 sets of 2,000
-samples, to 0.80 at least).
+A de-lagged sample carries the derivative's noise k (8 (n_+1 - n_-1) - (n_+2 - n_-2)),
+k = tau f_s / 12 (shared/delag.py), which telescopes along a run of samples: it is in the
+rms the core counts as independent but hardly in a fitted parameter (the fit's sums weigh
+each difference by the change of the sample's gradient over a few samples). Its variance is
+known from the sample's own noise s^2: 130 k^2 s^2 (the de-lag's taps k, -8k, 1, 8k, -k),
+9.1 s^2 for the Mag648 at 100 samples/s, 3 times the rms the sample's noise leaves; and the
+successive differences of de-lagged residuals (the von Neumann white noise w) read
+w^2 = s^2 (1 + 146 k^2) (the taps' differences). delag_share takes 130 k^2 w^2 / (1 + 146 k^2)
+off rms^2 (what is left: the noise, and any error that does not telescope), and the batch
+means are judged against that: the core's figure times sqrt(share tau). Judged against the
+whole rms, the Mag648's read tau 0.09-0.24 where the share is 0.10, and only a bound of it
+(below) narrowed the figure: 1.5-3.0 times the real full-sphere error.
+
+Residuals whose sum cancels for another reason read tau < 1, and then the error is narrowed:
+only by the shortest batches' tau, under white residuals' 0.6 % point, and only to its
+upper 99.4 % bound (tau / that point: 0.12 in 18 batches gives 0.35; their ends, where the
+differences do not cancel, make short batches read high too), and no lower than the longer
+batches read, so that the narrowed figure errs on the side of too large. White residuals
+are narrowed about once in a hundred (9 of 1,000 sets of 2,000 samples, to 0.80 at least).
 
 A systematic floor (systematic_floor, desktop/methods/residuals.py explains it):
 where the scale is pinned (a known field, a quick re-calibration), a slowly
@@ -135,6 +143,19 @@ def correlation_time(means, counts, rms):
         return best
     low = _chance_point(first[1] - 1, -Z_WHITE)
     return min(1.0, max(first[0] / low, longer)) if low > 0.0 else 1.0
+
+
+def delag_share(rms, white, k):
+    """The share of rms^2 (the residuals' mean square, nT^2) that is not a de-lag term's
+    telescoping noise (module docstring), for samples de-lagged by the five-point difference
+    with k = tau f_s / 12; white: the residuals' von Neumann white noise (nT; None: unknown,
+    1.0). The noise s^2 = white^2 / (1 + 146 k^2); what is left is rms^2 - 130 k^2 s^2, no less
+    than s^2."""
+    if not k or white is None or not rms > 0.0:
+        return 1.0
+    k2 = k * k
+    noise = white * white / (1.0 + 146.0 * k2)
+    return min(1.0, max(rms * rms - 130.0 * k2 * noise, noise) / (rms * rms))
 
 
 def systematic_floor(rms, white):

@@ -17,7 +17,7 @@ from desktop.cli import main
 from desktop.firmware.files import import_device
 from desktop.methods.residuals import batch_means, honest_error
 from desktop.sim.field import EARTH_NT
-from shared.honest import batch_length, correlation_time
+from shared.honest import batch_length, correlation_time, delag_share
 from tests.test_lag_experiment import ar1
 
 SCALE = 0.01          # nT per sum unit (the session's k): |B| at 5e6 units, 2**22.3 as an ADC's
@@ -125,6 +125,36 @@ def test_residuals_whose_sums_cancel_narrow_it_but_not_below_what_they_leave():
     white = [correlation_time(*batch_means(w), float(np.sqrt(np.mean(w ** 2))))
              for w in (rng.standard_normal(2000) for _ in range(300))]
     assert sum(t != 1.0 for t in white) <= 12, sorted(white)
+
+
+def test_the_de_lag_terms_noise_is_taken_off_and_the_rest_judged_against_it():
+    # de-lagged white noise: rms^2 = 1 + 130 k^2 = 10.0, of which the fit feels 1 (the long-run
+    # variance of its sums): delag_share reads 1 / 10.0 from the rms and the successive
+    # differences, to the 13 % (one sd) their 2,000 samples know the difference 10.0 - 9.0 by,
+    # and no lower (what is left is at least the noise); the batch means, judged against what
+    # is left, read white (1.0; narrowed a little, to 0.86 at most, 8 times in 100, where the
+    # share read high): the core's figure times sqrt(0.10), not sqrt(0.35-1) as before
+    rng = np.random.default_rng(11)
+    k = 0.263
+    want = 1.0 / (1.0 + 130.0 * k * k)
+    shares, taus = [], []
+    for _ in range(100):
+        x = _delagged(rng, 2000, k)
+        rms = float(np.sqrt(np.mean(x ** 2)))
+        share = delag_share(rms, float(np.sqrt(np.mean(np.diff(x) ** 2) / 2.0)), k)
+        shares.append(share)
+        taus.append(correlation_time(*batch_means(x), rms * share ** 0.5))
+    assert all(0.99 < v / want < 1.5 for v in shares), sorted(shares)
+    assert sum(t != 1.0 for t in taus) <= 12 and min(taus) > 0.6, sorted(taus)
+    # an error that does not telescope stays: a wandering |B| (AR(1), variance 1) beside it is
+    # left whole in what is judged (1 + 1 of 11), and its batch means widen the figure
+    x = _delagged(rng, 30000, k) + ar1(rng, 30000, 0.97)
+    rms = float(np.sqrt(np.mean(x ** 2)))
+    share = delag_share(rms, float(np.sqrt(np.mean(np.diff(x) ** 2) / 2.0)), k)
+    assert share * rms * rms == pytest.approx(2.0, rel=0.2)
+    assert correlation_time(*batch_means(x), rms * share ** 0.5) > 10.0
+    # nothing de-lagged, or no white noise known: all of it
+    assert delag_share(rms, 1.0, 0.0) == 1.0 and delag_share(rms, None, k) == 1.0
 
 
 def test_batches_follow_the_back_off_last_in_first_out():

@@ -46,10 +46,11 @@ CASES = (
     ("Mag649, delag_adc off (not de-lagged: its lag allows the whole gate)", {"sensor": "mag649"},
      {"delag_adc": False}, (0.5, 1.0)),
     ("paper preset, delag_adc off", {"sensor": "paper"}, {"delag_adc": False}, (0.5, 1.0)),
-    ("paper preset, polled DRDY (CircuitPython: delag_adc auto is off there)", {"sensor": "paper"},
-     {"polled": True}, (1.0,)),
-    ("paper preset, polled DRDY, delag_adc on (every gap costs the de-lag four samples)", {"sensor": "paper"},
-     {"polled": True, "delag_adc": True}, (1.0,)),
+    ("paper preset, polled DRDY (CircuitPython; delag_adc auto: its one-sample gaps bridged)", {"sensor": "paper"},
+     {"polled": True}, (0.5, 1.0)),
+    ("paper preset, polled DRDY, delag_adc off (not de-lagged)", {"sensor": "paper"},
+     {"polled": True, "delag_adc": False}, (1.0,)),
+    ("Mag648, polled DRDY (its one-sample gaps bridged)", {"sensor": "mag648"}, {"polled": True}, (0.5, 1.0)),
 )
 PAPER_MAG648 = "29-38 nT PTP (Table 1: 38 nT at 250 Hz, 29 nT at 1000 Hz)"
 
