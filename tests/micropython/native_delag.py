@@ -5,7 +5,7 @@
 # Delag (native where the module loads). After every push the result, the outputs (x, y, z, t,
 # ex, ey, ez), the saturation count and the whole state (_n, _h) must be the same.
 # Samples come from a fixed 32-bit LCG (lcg.py beside it): a turning field with noise, steps and
-# gaps (reset), random sums over the whole range, the +-2**23 * window extremes in every
+# gaps (reset) and one-sample gaps bridged (join), random sums over the whole range, the +-2**23 * window extremes in every
 # combination (saturation), taus from 1 us to past the words (shift 1, num past 2**27), tau
 # steps on and off, set_taus switching mid-stream, and numbers set by hand past the native
 # words (coefficients, limits, the count, sums beyond a small int); every window (1 .. 64) and
@@ -31,7 +31,8 @@ SCENARIOS = ((1000, 10, 2, (31831, 31831, 31831), None, "smooth", 400),
              (1000, 64, 64, (31831, 31831, 31831), (31831, 31831, 31831), "edges", 0),
              (2000, 4, 1, (725, 31831, 725), (700, 1, 0), "edges", 0),
              (1000, 10, 2, (31831, 725, 31831), (1000, 700, 0), "switch", 600),
-             (1000, 10, 2, (31831, 31831, 31831), (3000, 3000, 3000), "tampered", 700))
+             (1000, 10, 2, (31831, 31831, 31831), (3000, 3000, 3000), "tampered", 700),
+             (1000, 10, 2, (31831, 725, 31831), (3000, 700, 0), "bridged", 600))
 
 
 def samples(rng, kind, window, n, short=False):
@@ -60,6 +61,11 @@ def samples(rng, kind, window, n, short=False):
             p[a] += v[a]
         s = [p[0] + rng.signed(5), p[1] + rng.signed(5), p[2] + rng.signed(5), 2000 + i]
         r = 99 if kind == "smooth" else rng.bits(6)
+        if kind == "bridged":
+            if i % 9 in (0, 2):
+                yield None      # a polled board's one-sample gaps (runs of 6 and 1): joined
+            yield tuple(s)
+            continue
         if r < 2:
             p[rng.bits(2) % 3] += rng.signed(22) * window   # a step that stays
         elif r == 2:
@@ -153,7 +159,7 @@ def main(root, natmod=None, short=None):
         def python_push(self, x, y, z, t):
             slow[0] += 1
             return D.Delag.push(self, x, y, z, t)
-        dl.push = D._NativePush(dl, python_push)
+        dl.push = dl._fast = D._NativePush(dl, python_push)   # reset and a bridge go back to it
 
     locked = heap_locked(D, Rand) if native else None
     gc.collect()
@@ -175,7 +181,18 @@ def main(root, natmod=None, short=None):
         slow[0] = 0
         h = 0
         pushes = 0
+        held = None         # "bridged": the sample before a hole is pushed after join
         for i, smp in enumerate(samples(rng, kind, window, n, short)):
+            if kind == "bridged":
+                if smp is None:
+                    for d in both:
+                        if d.can_join():
+                            d.join(True)
+                        else:
+                            d.reset()
+                smp, held = held, smp
+                if smp is None:
+                    continue
             if kind == "switch" and i % 100 == 0:
                 # tau steps on and off, de-lag off and on (a reset), other taus
                 tt = (list(taus), list(taus), None, [725, 725, 725], list(taus), [160, 1, 31831])[i // 100 % 6]
