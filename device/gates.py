@@ -46,6 +46,7 @@ import math
 from array import array
 
 from residuals import ResidualBatches
+from shared.coverage import TAN_BITS
 from shared.delag import configured_tau_s, lag_dps, sensor_tau_s
 from shared.fixedpoint import FRACTION_BITS, NATIVE, ExactCorrection
 
@@ -111,6 +112,9 @@ class Gates:
         self._exact = None          # ... as shared.fixedpoint's |h_c| in C, where the port has it
         self.dist_limit = cfg["outlier_nt"]
         self._cap = cfg["cell_cap"]
+        self._cuts = cov._cuts      # the coverage cells, read inline in sample()
+        self._edge = cov.edge
+        self._counts = cov.counts
         self._fresh = True          # no previous sample to compare with
         self._dist_run = 0
         self._hold = 0              # samples still to reject after a disturbance
@@ -152,9 +156,16 @@ class Gates:
             if ex.path == "native":
                 self._exact = ex
                 unit = 1000 << FRACTION_BITS
-                self._field_q = int(cal.field * unit + 0.5)
-                self._limit_q = int(dist_limit * unit)
-                self._settled_q = int(0.1 * dist_limit * unit)
+                field = int(cal.field * unit + 0.5)
+                limit = int(dist_limit * unit)
+                settled = int(0.1 * dist_limit * unit)
+                # |m - field| > limit as two comparisons with the bounds: m is a big int on a
+                # 32-bit port (|h_c| ~ 2**34 units), and each subtraction or abs() of it is
+                # a heap allocation per sample
+                self._hi_q = field + limit
+                self._lo_q = field - limit
+                self._hi_settled_q = field + settled
+                self._lo_settled_q = field - settled
 
     def break_chain(self):
         """Samples were lost: the next one has no neighbour to gate its turn rate against."""
@@ -189,10 +200,39 @@ class Gates:
         if not (x or y or z):
             self.rej_rate += 1   # no direction (a dead front end): nothing to place
             return False
-        # 2. coverage cell cap
+        # 2. coverage cell cap: shared.coverage.Coverage.cell inlined (a method call each is
+        # ~2 k cycles on an RP2040; tests/test_device_gates.py holds them equal)
         cov = self.cov
-        cell = cov.cell(x, y, z)
-        n = cov.count(cell)
+        ax = x if x >= 0 else -x
+        ay = y if y >= 0 else -y
+        az = z if z >= 0 else -z
+        if ax >= ay and ax >= az:
+            face = 0 if x >= 0 else 1
+            major = ax
+            p = y
+            q = z
+        elif ay >= az:
+            face = 2 if y >= 0 else 3
+            major = ay
+            p = x
+            q = z
+        else:
+            face = 4 if z >= 0 else 5
+            major = az
+            p = x
+            q = y
+        p <<= TAN_BITS
+        q <<= TAN_BITS
+        i = j = 0
+        for cut in self._cuts:
+            c = cut * major
+            if p >= c:
+                i += 1
+            if q >= c:
+                j += 1
+        e = self._edge
+        cell = (face * e + i) * e + j
+        n = self._counts[cell]
         if n >= self._cap:
             self.rej_cap += 1
             return False
@@ -203,14 +243,12 @@ class Gates:
         if pc is not None and (n >= 3 or self._hold):
             ex = self._exact
             if ex is not None:
-                dev = abs(ex.magnitude(sx, sy, sz) - self._field_q)
-                limit = self._limit_q
-                settled = self._settled_q
+                m = ex.magnitude(sx, sy, sz)
+                out = m > self._hi_q or m < self._lo_q
             else:
-                dev = abs(pc.magnitude(sx, sy, sz) - pc.field)
-                limit = self.dist_limit
-                settled = 0.1 * limit
-            if dev > limit:
+                m = abs(pc.magnitude(sx, sy, sz) - pc.field)   # the deviation, nT
+                out = m > self.dist_limit
+            if out:
                 self.rej_dist += 1
                 self._dist_run += 1
                 if self._dist_run == _RUN:
@@ -222,7 +260,8 @@ class Gates:
                 # back-off: a dipole's 1/r^3 tail stays above the noise long after it
                 # falls under the gate; hold until it is under a tenth of the gate for 1 s
                 self.rej_dist += 1
-                if dev > settled:
+                if (m > self._hi_settled_q or m < self._lo_settled_q) if ex is not None else \
+                        m > 0.1 * self.dist_limit:
                     self._hold = self.back
                 else:
                     self._hold -= 1

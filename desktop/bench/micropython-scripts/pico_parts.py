@@ -25,7 +25,7 @@ from micropython import const
 _PORT = const(0x40068000)
 _ENTRY = const(0x100)      # on the way in: the runner counts a call (reads give the number alone)
 # the parts' numbers, as desktop/bench/pico.py names them (0: the rest of the main loop)
-REST, SCREEN, GATES, ADD, SOLVE, OUTPUT, PROTOCOL, FINISH, CELL, BATCHES = 0, 1, 2, 3, 4, 5, 6, 8, 9, 11
+REST, SCREEN, GATES, ADD, SOLVE, OUTPUT, PROTOCOL, FINISH, BATCHES = 0, 1, 2, 3, 4, 5, 6, 8, 11
 
 
 def _w1(f, part, parent):
@@ -86,14 +86,12 @@ def _session_parts():
     m = sys.modules
     for cls, name, wrapper, part, parent in (
             (m["gates"].Gates, "sample", _w4, GATES, OUTPUT),             # ... then a session's gates,
-            (m["shared.fit"].EllipsoidFit, "add", _w4, ADD, GATES),      # ... which add() what they accept,
-            (m["shared.coverage"].Coverage, "cell", _w4, CELL, GATES),   # ... place it in its coverage cell
+            (m["shared.fit"].EllipsoidFit, "add", _w4, ADD, GATES),      # ... which add() what they accept
             (m["residuals"].ResidualBatches, "added", _w1, BATCHES, GATES),   # ... and count it into its batch
             (m["session"].Session, "_solve", _nested, SOLVE, None)):     # every solve_every_s, and the final one
         if not getattr(cls, "_profiled", False):
             _wrap(cls, name, wrapper, part, parent)
-    for cls in (m["gates"].Gates, m["shared.fit"].EllipsoidFit, m["shared.coverage"].Coverage,
-                m["residuals"].ResidualBatches, m["session"].Session):
+    for cls in (m["gates"].Gates, m["shared.fit"].EllipsoidFit, m["residuals"].ResidualBatches, m["session"].Session):
         cls._profiled = True
 
 
