@@ -209,6 +209,13 @@ class Session:
         g.use_provisional(cal if (pe is not None and pe < 0.25 * limit) else None, limit)
         return True
 
+    def next_check_ms(self, now_ms, diff):
+        """ms from now_ms until tick or timed_out may next act (<= 0: at once): tick's solve when
+        the fit has samples enough for one, else its check on the next pass; the timeout."""
+        solve = self._solve_ms - diff(now_ms, self.last_solve)
+        timeout = self._max_ms + 1 - diff(now_ms, self.started)
+        return solve if solve < timeout else timeout
+
     def coverage(self):
         return self.cov.fraction()
 
