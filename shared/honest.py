@@ -44,8 +44,9 @@ each difference by the change of the sample's gradient over a few samples). Its 
 known from the sample's own noise s^2: 130 k^2 s^2 (the de-lag's taps k, -8k, 1, 8k, -k),
 9.1 s^2 for the Mag648 at 100 samples/s, 3 times the rms the sample's noise leaves; and the
 successive differences of de-lagged residuals (the von Neumann white noise w) read
-w^2 = s^2 (1 + 146 k^2) (the taps' differences). delag_share takes 130 k^2 w^2 / (1 + 146 k^2)
-off rms^2 (what is left: the noise, and any error that does not telescope), and the batch
+w^2 = s^2 (1 + 146 k^2) (the taps' differences). The laptop's derivative (desktop/methods/lag.py)
+is the same difference over taps m samples apart, k = tau f_s / (12 m): for m >= 2 the taps'
+differences do not overlap, w^2 = s^2 (1 + 130 k^2). delag_share takes 130 k^2 s^2 off rms^2 (what is left: the noise, and any error that does not telescope), and the batch
 means are judged against that: the core's figure times sqrt(share tau). Judged against the
 whole rms, the Mag648's read tau 0.09-0.24 where the share is 0.10, and only a bound of it
 (below) narrowed the figure: 1.5-3.0 times the real full-sphere error.
@@ -145,16 +146,17 @@ def correlation_time(means, counts, rms):
     return min(1.0, max(first[0] / low, longer)) if low > 0.0 else 1.0
 
 
-def delag_share(rms, white, k):
+def delag_share(rms, white, k, spacing=1):
     """The share of rms^2 (the residuals' mean square, nT^2) that is not a de-lag term's
     telescoping noise (module docstring), for samples de-lagged by the five-point difference
-    with k = tau f_s / 12; white: the residuals' von Neumann white noise (nT; None: unknown,
-    1.0). The noise s^2 = white^2 / (1 + 146 k^2); what is left is rms^2 - 130 k^2 s^2, no less
-    than s^2."""
+    over taps spacing samples apart (the board's: 1), k = tau f_s / (12 spacing); white: the
+    residuals' von Neumann white noise (nT; None: unknown, 1.0). The noise s^2 = white^2 /
+    (1 + 146 k^2) (1 + 130 k^2 where the taps' differences do not overlap); what is left is
+    rms^2 - 130 k^2 s^2, no less than s^2."""
     if not k or white is None or not rms > 0.0:
         return 1.0
     k2 = k * k
-    noise = white * white / (1.0 + 146.0 * k2)
+    noise = white * white / (1.0 + (146.0 if spacing == 1 else 130.0) * k2)
     return min(1.0, max(rms * rms - 130.0 * k2 * noise, noise) / (rms * rms))
 
 

@@ -75,6 +75,7 @@ def run(args):
     from desktop.formats.calibration import save_calibration
     from desktop.formats.readings import read_log
     from desktop.methods import fit_array
+    from desktop.methods.lag import delag_taps
     from desktop.methods.refusal import predicted_error, problem
     from shared.fit import FitError
 
@@ -98,7 +99,9 @@ def run(args):
         raise CommandError("calibration failed (%s): %s" % (exc.reason, exc.message))
     except (ValueError, ArithmeticError) as exc:
         raise CommandError("calibration failed (%s): %s" % (args.method, exc))
-    honest = predicted_error(cal, h, pinned=args.field is not None or prior is not None)
+    # where it de-lagged h, the de-lag term's telescoping noise is taken off as the board takes it
+    honest = predicted_error(cal, h, pinned=args.field is not None or prior is not None,
+                             delag=None if lag is None else delag_taps(lag["t"], lag["response"]["tau_s"]))
     d = cal.diagnostics
     if lag is not None:
         _add_tau_error(cal, h, honest, lag)
@@ -168,26 +171,17 @@ def _undo_lag(args, h, t):
 
 
 def _add_tau_error(cal, h, honest, lag):
-    """The predicted error of a de-lagged fit: the core's widened by the residuals' long-run
-    variance (desktop.methods.lag.long_run_ratio: the derivative's noise telescopes) when the
-    response is first order, the systematic floor kept, and the taus' uncertainty in
-    quadrature (lag.tau_error)."""
+    """The taus' uncertainty (lag.tau_error) in quadrature with the predicted error of a
+    de-lagged fit (refusal.predicted_error: the de-lag term's telescoping noise taken off the
+    residuals' rms, shared.honest.delag_share, as the board takes it)."""
     import math
 
-    from desktop.methods import magnitudes
-    from desktop.methods.lag import long_run_ratio, tau_error
+    from desktop.methods.lag import tau_error
     if honest["predicted_error"] is None:
         return
-    t = lag["t"]
-    batch = max(int(round(0.1 * (len(t) - 1) / (t[-1] - t[0]))), int(10 * honest["tau_int"]), 1)
-    ratio = long_run_ratio(magnitudes(cal, h) - cal.field, batch)
-    # a response the first-order model does not represent leaves residuals that follow the
-    # motion, not only the derivative's noise: they are counted as the core counts them
-    if ratio is not None and lag["model_ok"] and not cal.diagnostics.get("prior_error"):
-        honest["predicted_error"] = max(honest["predicted_error_white"] * ratio, honest["applied_floor"])
     err = 0.0
     if lag["tau_cov"].any():
-        err = tau_error(lag["raw"], t, lag["response"]["tau_s"], lag["tau_cov"], cal.field)
+        err = tau_error(lag["raw"], lag["t"], lag["response"]["tau_s"], lag["tau_cov"], cal.field)
     honest["predicted_error"] = math.hypot(honest["predicted_error"], err)
     cal.diagnostics.update(predicted_error=honest["predicted_error"], tau_error=err)
 

@@ -89,6 +89,19 @@ def delag(h, t, tau):
     return np.asarray(h, dtype=float) + derivative(h, t) * tau
 
 
+def delag_taps(t, tau):
+    """(k, spacing) of the five-point difference delag(h, t, tau) adds, tau (4 D_m - D_2m) / 3
+    = k (8 (n_+m - n_-m) - (n_+2m - n_-2m)), k = tau f_s / (12 m), m = spacing: what
+    shared.honest.delag_share takes off the residuals' rms (desktop.methods.residuals).
+    Per-axis taus: their rms (the residual along the field weighs the axes' noise by the
+    field's direction, over the sphere alike)."""
+    t = np.asarray(t, dtype=float)
+    m = span_samples(t)
+    rate = (len(t) - 1) / (t[-1] - t[0]) if len(t) > 1 and t[-1] > t[0] else 0.0
+    tau_rms = math.sqrt(float(np.mean(np.square(np.broadcast_to(np.asarray(tau, dtype=float), (3,))))))
+    return tau_rms * rate / (12.0 * m), m
+
+
 def times(n, t=None, rate_hz=None):
     """The sample times (N,) s: t itself, or n samples at rate_hz; ValueError if neither."""
     if t is not None:

@@ -43,15 +43,18 @@ MIN_OBSERVABILITY = 0.02
 LAG_CORRELATION = 0.3
 
 
-def predicted_error(cal, h, pinned):
-    """The predicted full-sphere error (nT) of cal fitted to h ((N, 3) nT, time order), or None.
+def predicted_error(cal, h, pinned, delag=None):
+    """The predicted full-sphere error (nT) of cal fitted to h ((N, 3) nT, time order), or None;
+    delag: (k, spacing) where h was de-lagged (residuals.residual_stats).
 
     Writes it into cal.diagnostics (predicted_error; predicted_error_white: the core's,
     for independent residuals; tau_int; residual_white_rms: the sample-to-sample noise;
     systematic_floor) and returns residuals.honest_error's dict.
     """
-    honest = honest_error(cal, h, pinned)
+    honest = honest_error(cal, h, pinned, delag)
     if honest["predicted_error"] is not None:
+        if honest["delag_share"] < 1.0:
+            cal.diagnostics["delag_share"] = round(honest["delag_share"], 4)
         cal.diagnostics.update(predicted_error=honest["predicted_error"],
                                predicted_error_white=honest["predicted_error_white"], tau_int=honest["tau_int"],
                                residual_white_rms=honest["white"], systematic_floor=honest["applied_floor"])

@@ -127,30 +127,36 @@ def batch_means(r):
     return (np.add.reduceat(r, edges) / counts).tolist(), counts.tolist()
 
 
-def residual_stats(r):
+def residual_stats(r, delag=None):
     """dict: rms, white (sigma_w), tau_int (shared.honest.correlation_time), batch (its
-    length), floor (shared.honest.systematic_floor)."""
+    length), floor (shared.honest.systematic_floor), delag_share (shared.honest.delag_share:
+    1 unless delag, (k, spacing) of the five-point difference the samples were de-lagged by,
+    desktop.methods.lag.delag_taps)."""
     r = np.asarray(r, dtype=float)
     rms = float(np.sqrt(np.mean(r * r)))
     white = white_rms(r)
     means, counts = batch_means(r)
-    tau = honest.correlation_time(means, counts, rms)
+    # the de-lag term's noise telescopes: the batch means are judged against the rest of the
+    # rms, the board's way (device/session.py _widen)
+    share = honest.delag_share(rms, white, *delag) if delag else 1.0
+    tau = honest.correlation_time(means, counts, rms * math.sqrt(share))
     return {"rms": rms, "white": white, "tau_int": tau, "batch": honest.batch_length(len(r)),
-            "floor": honest.systematic_floor(rms, white)}
+            "floor": honest.systematic_floor(rms, white), "delag_share": share}
 
 
-def honest_error(cal, h, pinned):
+def honest_error(cal, h, pinned, delag=None):
     """The honest predicted full-sphere error of a calibration fitted to h (N, 3) nT in time order.
 
     pinned: the calibration's scale was fixed from outside (a known field or a
     previous calibration), so a hidden systematic mean is an error of |h_c|.
+    delag: (k, spacing) where h was de-lagged (residual_stats), None where not.
     Returns residual_stats(...) plus predicted_error (honest), predicted_error_white
     (the core's), applied_floor (0 unless pinned); predicted_error is None when
     the calibration carries no predicted error (the numpy reference methods).
     """
     hc = correct_array(cal, h)
     r = (np.einsum("ij,ij->i", hc, hc) - cal.field * cal.field) / (2.0 * cal.field)
-    out = residual_stats(r)
+    out = residual_stats(r, delag)
     d = cal.diagnostics
     # the core's, also where the calibration was widened already (a board's, a written one)
     white_pred = d.get("predicted_error_white", d.get("predicted_error"))
@@ -160,5 +166,5 @@ def honest_error(cal, h, pinned):
         out["predicted_error"] = None
         return out
     out["predicted_error"] = honest.honest_error(float(white_pred), float(cal.diagnostics.get("prior_error") or 0.0),
-                                                 out["tau_int"], out["applied_floor"])
+                                                 out["tau_int"] * out["delag_share"], out["applied_floor"])
     return out
