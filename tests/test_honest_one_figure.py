@@ -126,6 +126,26 @@ def test_de_lagged_samples_get_one_figure_too(tmp_path):
     assert written["predicted_error"] == pytest.approx(d["predicted_error"], rel=0.01)
 
 
+def test_a_lag_not_undone_is_said_where_it_outweighs_the_figure():
+    """The Mag649 at 125 samples/s (the ADC's sinc3: a 4 ms response) turned at 0.25 rev/s with
+    delag_adc off: nothing undoes the lag, |B| short by B (tau w)^2 / 2 = 0.9 nT at the mean
+    pace. Its spread with the pace is above the predicted error, which does not count it: the
+    record says so (lag_left_nt), and fluxcal shows it. De-lagged (the default), nothing to say."""
+    from desktop.cli._show import fit_figures
+    from desktop.experiments.common import capture_nT
+
+    h, _ = capture_nT(sensor="mag649", rate=125, seconds=100.0, seed=5, rot_rate=0.25)
+    codes = np.rint(h / SCALE).astype(int)
+    left = {}
+    for adc in (False, True):
+        cal, _ = _run_session(codes, dict(rate=125, window=1, delag_adc=adc), period_ms=8)
+        left[adc] = cal.diagnostics
+    d = left[False]
+    assert d["lag_left_nt"] > d["predicted_error"] and "predicted_error_response" not in d, d
+    assert "lag was not undone" in fit_figures(d)
+    assert "lag_left_nt" not in left[True] and left[True]["predicted_error"] < d["lag_left_nt"], left[True]
+
+
 def test_correlation_time_of_white_and_ar1_batch_means():
     rng = np.random.default_rng(3)
     white = rng.standard_normal(30000)

@@ -85,6 +85,9 @@ def run_case(sensor, config, rev_s):
                tau_ms=None if cal.response is None else 1e3 * float(np.mean(cal.response["tau_s"])),
                tau_sigma_ms=None if cal.response is None else 1e3 * float(np.mean(cal.response["tau_sigma_s"])),
                msg=None if cal.response is None else cal.response.get("estimate"))
+    if cal.diagnostics.get("lag_left_nt") is not None:   # not de-lagged: session.py _widen's warning
+        out["msg"] = "the lag was not undone: up to %.3f nT (lag_left_nt) beside the predicted %.3f nT" % (
+            cal.diagnostics["lag_left_nt"], out["predicted"])
     return out
 
 

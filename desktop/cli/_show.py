@@ -51,6 +51,10 @@ def fit_figures(d):
              _figure(d, "n", "%d samples")]
     if d.get("coverage") is not None:
         parts.append("coverage %.0f %%" % (100 * d["coverage"]))
+    if d.get("lag_left_nt") is not None:
+        # the board did not de-lag (delag or delag_adc off): device/session.py _widen
+        parts.append("warning: the lag was not undone (delag off), which may leave up to %.3f nT the predicted "
+                     "error does not count" % d["lag_left_nt"])
     return ", ".join(p for p in parts if p)
 
 
