@@ -4,7 +4,7 @@
     python -m desktop.bench.cortexm --before 08bdee5    # beside the counts of a former revision
 
 What: MicroPython's bare-metal port on ARM's MPS2-AN385 (Cortex-M3, software floats,
-140 KB heap) in qemu-system-arm with -icount shift=0, where one instruction takes one
+240 KB heap, a Pico's) in qemu-system-arm with -icount shift=0, where one instruction takes one
 nanosecond of the board's clock, so ticks_us() differences x 1000 count instructions
 (desktop/devicesim/qemu_board.py). Counted there, in the revision's own code compiled
 to .mpy and run from the board's ROM filesystem, with the fit's native sums (fitsums.mpy for

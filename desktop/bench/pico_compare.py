@@ -35,6 +35,8 @@ def m3_estimate(f, key, calls_per_s, stream):
     if f is None:
         return None
     reads = f["rate"] * f["window"] / f["decim"]
+    if key == "irq23":     # PIO counted: the handler on the conversions read alone
+        return (reads * f["isr_read"] + f["rate"] / f["decim"] * f["isr_push_pop"]) * CPI + reads * WIRE_CYCLES
     if key == "irq29":
         n = (f["rate"] * (f["decim"] - f["window"]) / f["decim"] * f["isr_skip"] + reads * f["isr_read"]
              + f["rate"] / f["decim"] * f["isr_push_pop"])

@@ -5,7 +5,7 @@
         instructions = 1000 * ticks_us_difference
 
 The board is MicroPython's ports/qemu for ARM's MPS2-AN385 (a Cortex-M3 with
-software single-precision floats, a 140 KB heap), built by
+software single-precision floats, a 240 KB heap: a Pico's), built by
 desktop/firmware/interpreters.py as "qemu-m3" and run by qemu-system-arm with
 `-icount shift=0`: one instruction takes one nanosecond of the board's time, so
 `time.ticks_us()` differences times 1000 are instruction counts, repeatable
