@@ -38,12 +38,21 @@ from the calibration's temperature.
 
 
 import json
+from array import array
 
 from flashlog import RotatingLog
 from protocol import json_number
 from screen import Screen
 from shared.delag import DELAY, Delag, configured_tau_s, tau_us
 from shared.fixedpoint import FRACTION_BITS, ExactCorrection
+
+try:
+    # a sample's |h_c| and the block's sums in C (device/native/hc.h) where deploy installed the
+    # board's fitsums.mpy (MicroPython; ValueError: a .mpy of another arch or version)
+    from fitsums import survey as _native_survey
+except (ImportError, ValueError):
+    _native_survey = None
+_LEFT = 10      # fitsums.survey's words: five 64-bit sums (x, y, z, t, |h_c|), then the samples left
 
 # re-apply the temperature coefficients when the die moved this much: at 20 ppm/C and
 # 1 nT/C a step of 0.05 nT at 48,000 nT, below the noise
@@ -73,16 +82,28 @@ def _hundredths(s, d):
 
 
 class Survey:
-    def __init__(self, cfg, window, sample_hz):
+    """The output blocks' sums. With fitsums.survey (native=True, where it loads) most samples
+    go into `words` in C (Output.sample calls it) and count down words[_LEFT]; sample() here is
+    the pure-Python way (the reference, and the C's fall-back for a sample past its words: its
+    sums here, its count there); finish() adds the two."""
+
+    def __init__(self, cfg, window, sample_hz, native=True):
         self.window = window
         self.per_block = max(1, int(sample_hz / cfg["survey_hz"] + 0.5))
         self.blocks = 0
+        # blocks under 2**16 samples: the C's 64-bit sums cannot overflow (hc.h)
+        self.words = array("i", [0] * (_LEFT + 1)) if native and _native_survey and self.per_block < 1 << 16 else None
         self.restart()
 
     def restart(self):
         """Drop the open block (its samples were taken without |h_c|)."""
         self._n = 0
         self._sx = self._sy = self._sz = self._st = self._f = 0
+        w = self.words
+        if w is not None:
+            for i in range(_LEFT):
+                w[i] = 0
+            w[_LEFT] = self.per_block
 
     def sample(self, sx, sy, sz, st, f):
         """Accumulate; at the end of a block return its sums (x, y, z, t codes; f) and n."""
@@ -91,14 +112,27 @@ class Survey:
         self._sz += sz
         self._st += st
         self._f += f
-        self._n += 1
-        if self._n < self.per_block:
-            return None
-        out = (self._sx, self._sy, self._sz, self._st, self._f, self._n)
-        self._n = 0
-        self._sx = self._sy = self._sz = self._st = self._f = 0
+        w = self.words
+        if w is None:
+            self._n += 1
+            if self._n < self.per_block:
+                return None
+        else:
+            w[_LEFT] -= 1
+            if w[_LEFT] > 0:
+                return None
+        return self.finish()
+
+    def finish(self):
+        """The full block's sums (x, y, z, t codes; f) and n, the next block opened."""
+        s = [self._sx, self._sy, self._sz, self._st, self._f]
+        w = self.words
+        if w is not None:
+            for i in range(5):      # each a 64-bit two's complement, low word first
+                s[i] += (w[2 * i + 1] << 32) | (w[2 * i] & 0xFFFFFFFF)
         self.blocks += 1
-        return out
+        self.restart()
+        return (s[0], s[1], s[2], s[3], s[4], self.per_block)
 
 
 class Output:
@@ -121,6 +155,8 @@ class Output:
         self.cal_now = None        # the calibration at the die temperature (tempco applied)
         self.exact_w = None        # cal_now in integers for sums of `window` codes (per sample)
         self.exact_blk = None      # and for a block's sums (per block)
+        self._words = None         # the survey's words where fitsums.survey takes the samples
+        self._numbers = None       # and the |h_c| it sums with them (exact_w's; None: 0)
         self.temp_c = None
         self.cal_temp_warn = False
         self._comp_temp = None
@@ -209,6 +245,12 @@ class Output:
         w = self.cfg["window"]
         self.exact_w = ExactCorrection(self.cal, w, tau) if cal is not None else None
         self.exact_blk = ExactCorrection(self.cal, w * self.survey.per_block, tau) if cal is not None else None
+        # the per-sample |h_c| and block sums in C where they load, and |h_c| is either not
+        # wanted (0) or exact_w's in C; else (the float |h_c| uncalibrated) in Python
+        ex = self.exact_w
+        self._numbers = ex._native if self._want_f and ex is not None else None
+        native = not self._want_f or self._numbers is not None
+        self._words = self.survey.words if native else None
 
     # ****** per sample: the DRDY ring's reader calls these ******
     def gap(self, missing=0):
@@ -248,7 +290,15 @@ class Output:
         if s is not None:
             s.sample(sx, sy, sz)
         # |h_c| per decimated sample in 1/256 milli-nT, averaged over the output block
-        # (rotation invariant)
+        # (rotation invariant): in C with the block's sums, no int object made (a big int
+        # on a 32-bit port, and the collections it brings: ~100 k cycles a sample on an RP2040)
+        words = self._words
+        if words is not None:
+            done = _native_survey(words, self._numbers, sx, sy, sz, st)
+            if done is not None:       # None: past the C's words, the same sample in Python
+                if done:
+                    self._output(self.survey.finish())
+                return
         if self._want_f:
             ex = self.exact_w
             if ex is not None:

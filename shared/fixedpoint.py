@@ -4,7 +4,7 @@ every float width (double, float32, the 30-bit floats of CircuitPython).
     from shared.fixedpoint import ExactCorrection
     ex = ExactCorrection(cal, 2)          # inputs are sums of 2 codes (the boxcar's window)
     f = ex.magnitude(sx, sy, sz)          # |h_c| in 1/256 milli-nT (an int)
-    mx, my, mz = ex.correct(sx, sy, sz)   # h_c in milli-nT (ints, rounded)
+    mx, my, mz = ex.correct(sx, sy, sz)   # h_c in milli-nT (a tuple of ints, rounded)
 
 Why: a 30-bit float holds 22 bits, so 48,000 nT to 0.016 nT; even stored in it, M and b move
 |h_c| by ~0.01 nT. Here M and b enter as the exact binary values of the record
@@ -18,11 +18,12 @@ Everything is Python's integers; products of 24-bit codes and 40-bit coefficient
 integers on a 32-bit port (a heap allocation each): 9 products and about 25 other operations
 a sample, cheaper on a float32 board than the boxed floats they replace.
 
-Where the board has the native module fitsums (device/native/fitsums.c, MicroPython only),
-magnitude runs in its machine words for corrections whose numbers fit them (decided once, in
-__init__; `path` says "native" or "python"), the same integer; the pure-Python method below
-stays the reference, CircuitPython's and CPython's path, and the fall-back for a sum or an
-h_c past the words.
+Where the board has the native module fitsums (device/native/fitsums.c and hc.h, MicroPython
+only), magnitude and correct run in its machine words for corrections whose numbers fit them
+(decided once, in __init__; `path` says "native" or "python"), the same integers; the
+pure-Python methods below stay the reference, CircuitPython's and CPython's path, and the
+fall-back for a sum or an h_c past the words. device/survey.py's per-sample path calls
+fitsums.survey with `_native` itself (|h_c| summed into the block's words, no int object made).
 
 Temperature drift (Calibration.at_temperature's model) is applied to the exact values: the
 gain factors 1 / (1 + g tau) as exact fractions of the interpreter's product g tau, the
@@ -39,6 +40,11 @@ try:
     from fitsums import magnitude as _native_magnitude
 except (ImportError, ValueError):    # ValueError: a .mpy of another architecture or version
     _native_magnitude = None
+try:
+    # and the block's h_c (a fitsums from before it: the pure-Python correct)
+    from fitsums import correct as _native_correct
+except (ImportError, ValueError):
+    _native_correct = None
 NATIVE = _native_magnitude is not None   # |h_c| in C can run here (a correction's `path` says if it does)
 
 FRACTION_BITS = 8        # |h_c| and its axes carry 8 bits below the milli-nT
@@ -171,10 +177,20 @@ class ExactCorrection:
             f = _native_magnitude(self._native, sx, sy, sz)
             return self._magnitude(sx, sy, sz) if f is None else f
 
-    def correct(self, sx, sy, sz):
-        """h_c in milli-nT (ints, rounded to the nearest)."""
-        h = self._axes(sx, sy, sz)
-        return [(v + (1 << (FRACTION_BITS - 1))) >> FRACTION_BITS for v in h]
+    def _correct(self, sx, sy, sz):
+        """h_c in milli-nT (a tuple of ints, rounded to the nearest; the reference)."""
+        hx, hy, hz = self._axes(sx, sy, sz)
+        r = 1 << (FRACTION_BITS - 1)
+        return ((hx + r) >> FRACTION_BITS, (hy + r) >> FRACTION_BITS, (hz + r) >> FRACTION_BITS)
+
+    if _native_correct is None:
+        correct = _correct
+    else:
+        def correct(self, sx, sy, sz):
+            """h_c in milli-nT: in C (fitsums.correct, a tuple of small ints) where `path` is "native"
+            and the sums and results fit its words, else _correct (big ints on a 32-bit port)."""
+            b = None if self._native is None else _native_correct(self._native, sx, sy, sz)
+            return self._correct(sx, sy, sz) if b is None else b
 
 
 def isqrt(q):

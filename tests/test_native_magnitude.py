@@ -12,8 +12,11 @@ over the words' whole range and every number at its extreme. Every |h_c| must be
 integer, and the same as the pure method's on the interpreter itself. The native function must
 answer every call whose numbers and sums fit its words (so a native path silently not taken
 fails), and must not be called at all for a correction whose coefficient or offset does not fit
-(decided when it is built: its `path` is "python"). CircuitPython loads no MicroPython .mpy and
-keeps the pure path.
+(decided when it is built: its `path` is "python"). The same calls check fitsums.correct (the
+block's h_c) and fitsums.survey (device/survey.py's block sums with |h_c|, in words: the sums,
+|h_c| and the count after two samples; refused calls change nothing) against the pure methods,
+and that each answered every call that fits its words. CircuitPython loads no MicroPython .mpy
+and keeps the pure path.
 """
 
 import json
@@ -56,6 +59,11 @@ def _check(text, reference, native):
     if native:
         assert got["expected"] > 800         # most calls fit the words...
         assert got["native"] == got["expected"]     # ...and C answered each of them
+        # and so did fitsums.correct and fitsums.survey (hc.h), with the same integers
+        assert got["correct"] == got["correct_expected"] > 300     # (|h_c| under 2**30 milli-nT)
+        assert got["survey"] == got["survey_expected"] > 600      # (|h_c| under 2**47)
+    else:
+        assert got["correct"] == got["survey"] == 0
     return got
 
 

@@ -31,8 +31,10 @@ from shared.calibration import Calibration
 from shared.fixedpoint import ExactCorrection, float_pair, isqrt
 from desktop.devicesim.runners import heap_for
 from tests.interpreters import INTERPRETERS, need
+from tests.test_native_sums import LOADS_NATMODS, _need_natmod
 
 SCRIPT = os.path.join(os.path.dirname(__file__), "micropython", "survey_exact.py")
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PRINTED_NT = 0.0005          # the output's milli-nT: half of it is the rounding
 INTEGER_PATH_NT = 3e-5       # fixedpoint.py: 2.2e-5 from the coefficients + the floors
 FULL = 1 << 23               # the ADS1292's full scale, codes [DS 8.3.8]
@@ -114,11 +116,13 @@ def _float64(case):
     return out
 
 
-def _run(command, paths, root):
-    """Each case's data events' members, from the script run by command (a list)."""
+def _run(command, paths, root, natmod=None):
+    """Each case's data events' members, from the script run by command (a list); with natmod
+    (fitsums.mpy's folder), then "#native" or "#python"."""
     out = []
     for path in paths:
-        proc = subprocess.run(command + [SCRIPT, str(path), root], capture_output=True, text=True, timeout=600)
+        proc = subprocess.run(command + [SCRIPT, str(path), root] + ([natmod] if natmod else []),
+                              capture_output=True, text=True, timeout=600)
         assert proc.returncode == 0, proc.stderr[-2000:]
         out.append(proc.stdout.splitlines())
     return out
@@ -158,6 +162,36 @@ def test_survey_output_is_cpythons_on_every_float_width(name, job, cpython, root
         if case["temp"] is None:
             assert members == ref      # the same digits: nothing in the path is a float
     _check_against_float64(got, cases)
+
+
+@pytest.mark.parametrize("name", sorted(set(INTERPRETERS) & LOADS_NATMODS))
+def test_survey_output_in_c_is_the_pure_ones(name, job, cpython, root):
+    """With the fitsums.mpy deploy picks for the interpreter (each sample's |h_c| and the block's
+    sums in fitsums.survey, the block's h_c in fitsums.correct): the lines of its pure-Python
+    run (CPython's where no float enters), and the native path taken."""
+    path, cases = job
+    exe = need(name)
+    natmod = os.path.dirname(_need_natmod(exe, name))
+    heap = ["-X", "heapsize=" + heap_for(name)]
+    pure = _run([exe] + heap, path, root)
+    for members, ref, same, case in zip(_run([exe] + heap, path, root, natmod), cpython, pure, cases):
+        assert members[-1] == "#native"
+        assert members[:-1] == same
+        if case["temp"] is None:
+            assert members[:-1] == ref
+
+
+def test_survey_output_in_c_on_the_emulated_pico(job, cpython):
+    """The same on the emulated Pico (armv6m fitsums.mpy, 31-bit small ints): a realistic, an
+    adversarial (window 64: its blocks' sums past a small int, correct in Python) and a board's
+    record, CPython's lines to the digit."""
+    need("rp2-pico")
+    from desktop.bench.pico_survey import _disk, run_on_pico
+    path, cases = job
+    for i in (0, 4, 6):
+        got = run_on_pico(lambda disk: _disk(disk, REPO, cases[i], script=SCRIPT), "pico_survey", lines=True)
+        assert got is not None and got[-1] == "#native"
+        assert got[-1 - len(cpython[i]):-1] == cpython[i]
 
 
 def test_float_pair_is_exact_and_short():

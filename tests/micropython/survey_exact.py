@@ -2,22 +2,29 @@
 # and data events, the correction in shared/fixedpoint.py) on the stand-ins of
 # desktop/bench/micropython-scripts/survey_stand_ins.py (every sample passes, as the window sums
 # given). argv[1] a JSON case {"cal": record, "window": n, "per_block": n,
-# "temp": C or null, "sums": [[sx, sy, sz], ...]}, argv[2] the repository root. Prints the
-# "b" and "f" members of every data event as sent, a line each (kept, they would scatter
-# over the heap between collections and leave no room for one long line).
+# "temp": C or null, "sums": [[sx, sy, sz], ...]}, argv[2] the repository root, argv[3] (if
+# given) the folder of the fitsums.mpy to load; on the emulated Pico (no argv) /disk/job.json,
+# the modules and fitsums.mpy in /disk. Prints the "b" and "f" members of every data event
+# as sent, a line each (kept, they would scatter over the heap between collections and leave
+# no room for one long line); with a natmod folder, then "#native" or "#python": whether
+# fitsums.survey took the samples and fitsums.correct the blocks.
 import json
 import sys
 
-sys.path.insert(0, sys.argv[2] + "/device")
-sys.path.insert(0, sys.argv[2] + "/desktop/bench/micropython-scripts")
-sys.path.insert(0, sys.argv[2])
+if len(sys.argv) > 2:
+    case_path, root, natmod = sys.argv[1], sys.argv[2], (sys.argv[3] if len(sys.argv) > 3 else None)
+else:
+    case_path, root, natmod = "/disk/job.json", "/disk", "/disk"
+for folder in (root + "/device", root + "/desktop/bench/micropython-scripts", root, natmod):
+    if folder and folder not in sys.path:
+        sys.path.insert(0, folder)
 from config import defaults  # noqa: E402
 from shared.calibration import Calibration  # noqa: E402
 from survey import Output  # noqa: E402
 from survey_stand_ins import Board, Die, Line, Passes  # noqa: E402
 
 
-with open(sys.argv[1]) as fh:
+with open(case_path) as fh:
     case = json.load(fh)
 cfg = defaults()
 cfg["window"] = case["window"]
@@ -32,3 +39,6 @@ o.use(Calibration.from_dict(case["cal"]))
 o.set_stream("corrected")
 for sx, sy, sz in case["sums"]:
     o.sample(sx, sy, sz, 0)
+if natmod:
+    ex = o.exact_blk
+    print("#native" if o._words is not None and ex is not None and ex.path == "native" else "#python")
