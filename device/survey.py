@@ -63,15 +63,31 @@ _RANGE_MARGIN_C = 1.0
 _EXTRAPOLATE_C = 10.0     # and are applied at most this far outside it (held there beyond)
 
 
-_FIXED3 = "%s%d.%02d, %s%d.%02d, %s%d.%02d"      # three hundredths, each _sign()'s three parts
+_FIXED3 = "%s%d.%02d, %s%d.%02d, %s%d.%02d"      # three hundredths, each _parts3()'s three parts
 _FIXED3M = "%s%d.%03d, %s%d.%03d, %s%d.%03d"     # three thousandths (milli-nT)
+# a block's texts, each one format (a format costs ~6 k cycles an item on an RP2040, and a
+# string made and dropped more in the collections it brings): the raw and data events' heads
+# with the temperature's "%.2f" ([0]) or, when it is not a number, "%s" of "null" ([1]); the
+# data event's members; the log line (its numbers without the ", ": no part holds one)
+_RAW = tuple('"t": %d, "n": %d, "c": [' + _FIXED3 + '], "temp": ' + tf for tf in ("%.2f", "%s"))
+_DATA = tuple('"t": %d, "temp": ' + tf + ', "c": [' + _FIXED3 + '], "cal": %s, "warn": %s' for tf in ("%.2f", "%s"))
+_DATA_B = '"b": [' + _FIXED3M + '], "f": %d.%03d'
+_LOG = "%d," + _FIXED3M.replace(", ", ",") + ",%d.%03d,%.2f\n"
 
 
-def _sign(v, p):
-    """(sign, whole, fraction) of an int v of 1/p units, for a '%s%d.%0Nd' of it."""
-    if v < 0:
-        return ("-",) + divmod(-v, p)
-    return ("",) + divmod(v, p)
+def _parts3(a, b, c, p):
+    """The nine parts (sign, whole, fraction: a '%s%d.%0Nd' each) of the ints a, b, c of 1/p units."""
+    sa = sb = sc = ""
+    if a < 0:
+        sa = "-"
+        a = -a
+    if b < 0:
+        sb = "-"
+        b = -b
+    if c < 0:
+        sc = "-"
+        c = -c
+    return (sa, a // p, a % p, sb, b // p, b % p, sc, c // p, c % p)
 
 
 def _hundredths(s, d):
@@ -299,6 +315,7 @@ class Output:
                 if done:
                     self._output(self.survey.finish())
                 return
+        f = 0
         if self._want_f:
             ex = self.exact_w
             if ex is not None:
@@ -306,8 +323,6 @@ class Output:
             else:
                 k = self.scale
                 f = int(((sx * k[0]) ** 2 + (sy * k[1]) ** 2 + (sz * k[2]) ** 2) ** 0.5 * self._f_unit)
-        else:
-            f = 0
         blk = self.survey.sample(sx, sy, sz, st, f)
         if blk is not None:
             self._output(blk)
@@ -325,13 +340,16 @@ class Output:
         if not self._want_f:
             return   # nothing goes out: no stream, no log
         t = self.board.ticks_ms()
-        # the block's mean codes in hundredths from the integer sums: no float to box and print
-        c = _FIXED3 % (_sign(_hundredths(sx, d), 100) + _sign(_hundredths(sy, d), 100) + _sign(_hundredths(sz, d), 100))
-        temp_t = "%.2f" % temp if temp == temp else "null"
-        if self.stream == "raw":
+        stream = self.stream
+        nan = 0 if temp == temp else 1     # the heads' formats: the temperature's "%.2f", or null
+        tv = "null" if nan else temp
+        if stream != "off":
+            # the block's mean codes in hundredths from the integer sums: no float to box and print
+            c = _parts3(_hundredths(sx, d), _hundredths(sy, d), _hundredths(sz, d), 100)
+        if stream == "raw":
             # n: its last sample's block number (the screen holds one back, the de-lag DELAY more)
             seq = -1 if self.acq is None else (self.acq.last_block - 1 - (DELAY if self._delag_on else 0)) & 0x3FFFFFFF
-            self.proto.event("raw", '"t": %d, "n": %d, "c": [%s], "temp": %s' % (t, seq, c, temp_t))
+            self.proto.event("raw", _RAW[nan] % ((t, seq) + c + (tv,)))
             if self.recorder is None and (self.log is None or self.session is not None):
                 return
         # h_c and |h_c| in milli-nT, integers: printed to the last digit a narrow float cannot hold
@@ -344,19 +362,18 @@ class Output:
             k = self.scale
             b = (round(sx / d * k[0] * 1000), round(sy / d * k[1] * 1000), round(sz / d * k[2] * 1000))
         f = (2 * fs + (n << FRACTION_BITS)) // (2 * n << FRACTION_BITS)   # the mean |h_c|, milli-nT (rounded)
-        if self.stream == "corrected":
-            # the event's members as JSON text (protocol.Protocol.event), each part in one
-            # format: a call or a format per number costs ~20 k cycles on an RP2040
-            self.proto.event("data", '"t": %d, "temp": %s, "c": [%s], "cal": %s, "warn": %s' % (
-                t, temp_t, c, "false" if cal is None else "true", "null" if msg is None else json.dumps(msg)),
-                '"b": [%s], "f": %d.%03d' % ((_FIXED3M % (_sign(b[0], 1000) + _sign(b[1], 1000) + _sign(b[2], 1000)),)
-                                             + divmod(f, 1000)))
+        logging = self.log is not None and self.session is None
+        if stream == "corrected" or logging:
+            fp = _parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000)
+        if stream == "corrected":
+            # the event's members as JSON text (protocol.Protocol.event), the head and the
+            # members one format each
+            self.proto.event("data", _DATA[nan] % ((t, tv) + c + (
+                "false" if cal is None else "true", "null" if msg is None else json.dumps(msg))), _DATA_B % fp)
         if self.recorder is not None:
             self.recorder.block(t, f)
-        if self.log is not None and self.session is None:
-            self.log.write("%d,%s,%d.%03d,%.2f\n" % ((t, (_FIXED3M % (_sign(b[0], 1000) + _sign(b[1], 1000)
-                                                                      + _sign(b[2], 1000))).replace(", ", ","))
-                                                      + divmod(f, 1000) + (temp,)))
+        if logging:
+            self.log.write(_LOG % ((t,) + fp + (temp,)))
 
     def _temperature_warning(self, temp):
         """Whether the die's temperature makes the calibration in force doubtful (cal_temp_warn)
