@@ -33,6 +33,38 @@ def json_number(x, nd=3):
     return round(x, nd)
 
 
+FIXED3 = "%s%d.%02d, %s%d.%02d, %s%d.%02d"      # three hundredths, each three of parts3()
+FIXED3M = "%s%d.%03d, %s%d.%03d, %s%d.%03d"     # three thousandths (milli-nT)
+# the survey's per-block events (device/survey.py), each one format: the raw and data events'
+# heads with the temperature's "%.2f" ([0]) or, when it is not a number, "%s" of "null" ([1]);
+# the data event's members
+RAW_HEAD = tuple('"t": %d, "n": %d, "c": [' + FIXED3 + '], "temp": ' + tf for tf in ("%.2f", "%s"))
+DATA_HEAD = tuple('"t": %d, "temp": ' + tf + ', "c": [' + FIXED3 + '], "cal": %s, "warn": %s' for tf in ("%.2f", "%s"))
+DATA_B = '"b": [' + FIXED3M + '], "f": %d.%03d'
+
+
+def parts3(a, b, c, p):
+    """The nine parts (sign, whole, fraction: a '%s%d.%0Nd' each) of the ints a, b, c of 1/p units."""
+    sa = sb = sc = ""
+    if a < 0:
+        sa = "-"
+        a = -a
+    if b < 0:
+        sb = "-"
+        b = -b
+    if c < 0:
+        sc = "-"
+        c = -c
+    return (sa, a // p, a % p, sb, b // p, b % p, sc, c // p, c % p)
+
+
+def hundredths(s, d):
+    """s / d in hundredths, rounded half up, in small ints (|s| < 2**30, d < 2**21): 200 s would
+    be a big integer on a 32-bit port, a heap allocation an operation."""
+    q = s // d
+    return 100 * q + (200 * (s - q * d) + d) // (2 * d)
+
+
 class ProtocolError(Exception):
     """A request the device refuses: .code is the stable error code."""
 

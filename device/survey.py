@@ -41,7 +41,7 @@ import json
 from array import array
 
 from flashlog import RotatingLog
-from protocol import json_number
+from protocol import DATA_B, DATA_HEAD, FIXED3M, RAW_HEAD, hundredths, json_number, parts3
 from screen import Screen
 from shared.delag import DELAY, Delag, configured_tau_s, tau_us
 from shared.fixedpoint import FRACTION_BITS, ExactCorrection
@@ -52,8 +52,9 @@ try:
     from fitsums import survey as _native_survey
 except (ImportError, ValueError):
     _native_survey = None
-_LEFT = 10      # fitsums.survey's words: five 64-bit sums (x, y, z, t, |h_c|), then the samples left
-
+# fitsums.survey's words (an array("H"), hc.h): five 64-bit sums (x, y, z, t, |h_c|) of four
+# limbs each, the samples the block still takes, 1 if |h_c| is summed (else 0), its numbers
+_LEFT, _HAS_F, _NUMBERS_AT = 20, 21, 22
 # re-apply the temperature coefficients when the die moved this much: at 20 ppm/C and
 # 1 nT/C a step of 0.05 nT at 48,000 nT, below the noise
 _TEMP_STEP_C = 0.05
@@ -63,52 +64,23 @@ _RANGE_MARGIN_C = 1.0
 _EXTRAPOLATE_C = 10.0     # and are applied at most this far outside it (held there beyond)
 
 
-_FIXED3 = "%s%d.%02d, %s%d.%02d, %s%d.%02d"      # three hundredths, each _parts3()'s three parts
-_FIXED3M = "%s%d.%03d, %s%d.%03d, %s%d.%03d"     # three thousandths (milli-nT)
-# a block's texts, each one format (a format costs ~6 k cycles an item on an RP2040, and a
-# string made and dropped more in the collections it brings): the raw and data events' heads
-# with the temperature's "%.2f" ([0]) or, when it is not a number, "%s" of "null" ([1]); the
-# data event's members; the log line (its numbers without the ", ": no part holds one)
-_RAW = tuple('"t": %d, "n": %d, "c": [' + _FIXED3 + '], "temp": ' + tf for tf in ("%.2f", "%s"))
-_DATA = tuple('"t": %d, "temp": ' + tf + ', "c": [' + _FIXED3 + '], "cal": %s, "warn": %s' for tf in ("%.2f", "%s"))
-_DATA_B = '"b": [' + _FIXED3M + '], "f": %d.%03d'
-_LOG = "%d," + _FIXED3M.replace(", ", ",") + ",%d.%03d,%.2f\n"
-
-
-def _parts3(a, b, c, p):
-    """The nine parts (sign, whole, fraction: a '%s%d.%0Nd' each) of the ints a, b, c of 1/p units."""
-    sa = sb = sc = ""
-    if a < 0:
-        sa = "-"
-        a = -a
-    if b < 0:
-        sb = "-"
-        b = -b
-    if c < 0:
-        sc = "-"
-        c = -c
-    return (sa, a // p, a % p, sb, b // p, b % p, sc, c // p, c % p)
-
-
-def _hundredths(s, d):
-    """s / d in hundredths, rounded half up, in small ints (|s| < 2**30, d < 2**21): 200 s would
-    be a big integer on a 32-bit port, a heap allocation an operation."""
-    q = s // d
-    return 100 * q + (200 * (s - q * d) + d) // (2 * d)
+# a block's texts, each one format (protocol.py's; a format costs ~6 k cycles an item on an
+# RP2040, a string made and dropped more in the collections it brings); the log line's numbers
+# without the ", " (no part holds one)
+_LOG = "%d," + FIXED3M.replace(", ", ",") + ",%d.%03d,%.2f\n"
 
 
 class Survey:
-    """The output blocks' sums. With fitsums.survey (native=True, where it loads) most samples
-    go into `words` in C (Output.sample calls it) and count down words[_LEFT]; sample() here is
-    the pure-Python way (the reference, and the C's fall-back for a sample past its words: its
-    sums here, its count there); finish() adds the two."""
+    """The output blocks' sums: in C (fitsums.survey, Output.sample calls it) in `words` where it
+    loads (native=True), counting down words[_LEFT]; sample() is the pure-Python way (the reference,
+    and the C's fall-back for a sample past its words: its sums here); finish() adds the two."""
 
     def __init__(self, cfg, window, sample_hz, native=True):
         self.window = window
         self.per_block = max(1, int(sample_hz / cfg["survey_hz"] + 0.5))
         self.blocks = 0
-        # blocks under 2**16 samples: the C's 64-bit sums cannot overflow (hc.h)
-        self.words = array("i", [0] * (_LEFT + 1)) if native and _native_survey and self.per_block < 1 << 16 else None
+        # blocks under 2**16 samples: the C's 64-bit sums cannot overflow, LEFT is a limb (hc.h)
+        self.words = array("H", [0] * (_NUMBERS_AT + 64)) if native and _native_survey and self.per_block < 1 << 16 else None
         self.restart()
 
     def restart(self):
@@ -131,21 +103,19 @@ class Survey:
         w = self.words
         if w is None:
             self._n += 1
-            if self._n < self.per_block:
-                return None
-        else:
-            w[_LEFT] -= 1
-            if w[_LEFT] > 0:
-                return None
-        return self.finish()
+            return self.finish() if self._n >= self.per_block else None
+        w[_LEFT] -= 1
+        return None if w[_LEFT] else self.finish()
 
     def finish(self):
         """The full block's sums (x, y, z, t codes; f) and n, the next block opened."""
         s = [self._sx, self._sy, self._sz, self._st, self._f]
         w = self.words
         if w is not None:
-            for i in range(5):      # each a 64-bit two's complement, low word first
-                s[i] += (w[2 * i + 1] << 32) | (w[2 * i] & 0xFFFFFFFF)
+            for i in range(5):      # each a 64-bit two's complement, low limb first
+                j = 4 * i
+                v = w[j] | (w[j + 1] << 16) | (w[j + 2] << 32) | (w[j + 3] << 48)
+                s[i] += v - (1 << 64) if v >> 63 else v
         self.blocks += 1
         self.restart()
         return (s[0], s[1], s[2], s[3], s[4], self.per_block)
@@ -172,7 +142,7 @@ class Output:
         self.exact_w = None        # cal_now in integers for sums of `window` codes (per sample)
         self.exact_blk = None      # and for a block's sums (per block)
         self._words = None         # the survey's words where fitsums.survey takes the samples
-        self._numbers = None       # and the |h_c| it sums with them (exact_w's; None: 0)
+        self._clipped = 0          # the screen's clipped count at its last dropped sample
         self.temp_c = None
         self.cal_temp_warn = False
         self._comp_temp = None
@@ -183,6 +153,7 @@ class Output:
         self.survey = Survey(c, c["window"], sample_hz)
         self.scale = (c["scale_x"], c["scale_y"], c["scale_z"])
         self.screen = Screen(self.scale, c["window"], c["spike_nt"])
+        self._clipped = 0
         self.delag = Delag(c["window"])
         self._f_unit = 1000.0 * (1 << FRACTION_BITS) / c["window"]   # nT of a window's sums -> |h_c|'s unit
         if c["log"] and self.log is None:
@@ -216,12 +187,11 @@ class Output:
         self.respond()
 
     def respond(self):
-        """De-lag with the response of what the samples feed: a calibration in progress's
-        (the configured one, session.py); none for the raw stream (the codes as read, which
-        fluxcal capture records and fluxcal fit --lag de-lags itself); else the one the
-        calibration in force was fitted with (none if its record has none: its samples were
-        not de-lagged), else the configured one. Called again when a session starts or ends
-        (calibration_flow.py) and when the stream changes."""
+        """De-lag with the response of what the samples feed: a calibration in progress's (the
+        configured one, session.py); none for the raw stream (the codes as read, which fluxcal
+        capture records and fluxcal fit --lag de-lags itself); else the one the calibration in
+        force was fitted with (none if its record has none: its samples were not de-lagged),
+        else the configured one. Called again when a session starts or ends and when the stream changes."""
         c = self.cfg
         s = self.session
         if s is not None:
@@ -264,9 +234,12 @@ class Output:
         # the per-sample |h_c| and block sums in C where they load, and |h_c| is either not
         # wanted (0) or exact_w's in C; else (the float |h_c| uncalibrated) in Python
         ex = self.exact_w
-        self._numbers = ex._native if self._want_f and ex is not None else None
-        native = not self._want_f or self._numbers is not None
-        self._words = self.survey.words if native else None
+        numbers = ex._native if self._want_f and ex is not None else None
+        w = self._words = self.survey.words if numbers is not None or not self._want_f else None
+        if w is not None:       # |h_c| summed in C with exact_w's limbs, or 0
+            w[_HAS_F] = 0 if numbers is None else 1
+            for i in range(64 if numbers is not None else 0):
+                w[_NUMBERS_AT + i] = numbers[i]
 
     # ****** per sample: the DRDY ring's reader calls these ******
     def gap(self, missing=0):
@@ -283,13 +256,39 @@ class Output:
             s.break_chain()
 
     def sample(self, rx, ry, rz, rt):
+        # a frame of at most 11 slots (arguments reused as locals, the value stack): a larger one
+        # is a heap allocation a call (py/objfun.c VM_MAX_STATE_ON_STACK), ~35 k cycles on an
+        # RP2040 with the heap as full as after boot. Sessions, and no fitsums.survey: _sample
+        if not self.screen.push(rx, ry, rz, rt):
+            return self._dropped()
+        rx = self._words
+        if rx is None or self.session is not None:
+            return self._sample()
+        ry = self.screen
+        if self._delag_on:
+            rz = self.delag
+            if not rz.push(ry.x, ry.y, ry.z, ry.t):
+                return
+            ry = rz
+        # |h_c| per decimated sample in 1/256 milli-nT, summed with the block's sums in C: no
+        # int object made (a big int on a 32-bit port, and the collections it brings)
+        rz = _native_survey(rx, ry.x, ry.y, ry.z, ry.t)
+        if rz is None:         # past the C's words: the same sample in Python
+            return self._survey(ry.x, ry.y, ry.z, ry.t)
+        return self._output(self.survey.finish()) if rz else None
+
+    def _dropped(self):
+        """The screen dropped the sample: a clipped one counts in the session's `clipped`."""
         sc = self.screen
-        clipped = sc.clipped
-        if not sc.push(rx, ry, rz, rt):
-            if sc.clipped != clipped and self.session is not None:
+        if sc.clipped != self._clipped:
+            self._clipped = sc.clipped
+            if self.session is not None:
                 self.session.clipped += 1
                 self.session.clip_axis = sc.clip_axis
-            return
+
+    def _sample(self):
+        """The screened sample de-lagged, to the session, then to the survey."""
+        sc = self.screen
         sx = sc.x
         sy = sc.y
         sz = sc.z
@@ -305,13 +304,14 @@ class Output:
         s = self.session
         if s is not None:
             s.sample(sx, sy, sz)
-        # |h_c| per decimated sample in 1/256 milli-nT, averaged over the output block
-        # (rotation invariant): in C with the block's sums, no int object made (a big int
-        # on a 32-bit port, and the collections it brings: ~100 k cycles a sample on an RP2040)
+        self._survey(sx, sy, sz, st)
+
+    def _survey(self, sx, sy, sz, st):
+        # |h_c| per decimated sample in 1/256 milli-nT, averaged over the block (rotation invariant)
         words = self._words
         if words is not None:
-            done = _native_survey(words, self._numbers, sx, sy, sz, st)
-            if done is not None:       # None: past the C's words, the same sample in Python
+            done = _native_survey(words, sx, sy, sz, st)
+            if done is not None:
                 if done:
                     self._output(self.survey.finish())
                 return
@@ -345,11 +345,11 @@ class Output:
         tv = "null" if nan else temp
         if stream != "off":
             # the block's mean codes in hundredths from the integer sums: no float to box and print
-            c = _parts3(_hundredths(sx, d), _hundredths(sy, d), _hundredths(sz, d), 100)
+            c = parts3(hundredths(sx, d), hundredths(sy, d), hundredths(sz, d), 100)
         if stream == "raw":
             # n: its last sample's block number (the screen holds one back, the de-lag DELAY more)
             seq = -1 if self.acq is None else (self.acq.last_block - 1 - (DELAY if self._delag_on else 0)) & 0x3FFFFFFF
-            self.proto.event("raw", _RAW[nan] % ((t, seq) + c + (tv,)))
+            self.proto.event("raw", RAW_HEAD[nan] % ((t, seq) + c + (tv,)))
             if self.recorder is None and (self.log is None or self.session is not None):
                 return
         # h_c and |h_c| in milli-nT, integers: printed to the last digit a narrow float cannot hold
@@ -364,12 +364,12 @@ class Output:
         f = (2 * fs + (n << FRACTION_BITS)) // (2 * n << FRACTION_BITS)   # the mean |h_c|, milli-nT (rounded)
         logging = self.log is not None and self.session is None
         if stream == "corrected" or logging:
-            fp = _parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000)
+            fp = parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000)
         if stream == "corrected":
             # the event's members as JSON text (protocol.Protocol.event), the head and the
             # members one format each
-            self.proto.event("data", _DATA[nan] % ((t, tv) + c + (
-                "false" if cal is None else "true", "null" if msg is None else json.dumps(msg))), _DATA_B % fp)
+            self.proto.event("data", DATA_HEAD[nan] % ((t, tv) + c + (
+                "false" if cal is None else "true", "null" if msg is None else json.dumps(msg))), DATA_B % fp)
         if self.recorder is not None:
             self.recorder.block(t, f)
         if logging:

@@ -21,7 +21,7 @@
 // every object representation, so one build serves an architecture.
 //
 //     fitsums.magnitude(numbers, sx, sy, sz)    # shared.fixedpoint.ExactCorrection's |h_c|, or None
-//     fitsums.survey(words, numbers, sx, sy, sz, st)   # a sample into device/survey.py's block
+//     fitsums.survey(words, sx, sy, sz, st)     # a sample into device/survey.py's block
 //     fitsums.correct(numbers, sx, sy, sz)      # ExactCorrection.correct's h_c, or None
 //
 // are the survey's exact |h_c|, block sums and h_c (hc.h).
@@ -183,7 +183,7 @@ mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *a
     mp_store_global(MP_QSTR_magnitude, MP_OBJ_FROM_PTR(&magnitude_obj));
     mp_store_global(MP_QSTR_survey, MP_OBJ_FROM_PTR(&survey_obj));
     mp_store_global(MP_QSTR_correct, MP_OBJ_FROM_PTR(&correct_obj));
-    mp_store_global(MP_QSTR_SURVEY_WORDS, MP_OBJ_NEW_SMALL_INT(SURVEY_WORDS));
+    mp_store_global(MP_QSTR_SURVEY_LIMBS, MP_OBJ_NEW_SMALL_INT(SURVEY_LIMBS));
     mp_store_global(MP_QSTR_NUMBERS, MP_OBJ_NEW_SMALL_INT(NUMBERS));
     mp_store_global(MP_QSTR_WORDS, MP_OBJ_NEW_SMALL_INT(WORDS));
     mp_store_global(MP_QSTR_COUNT, MP_OBJ_NEW_SMALL_INT(COUNT));

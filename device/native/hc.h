@@ -2,7 +2,7 @@
 // fitsums.c (which it is included into, after mul32, accumulate and small_within):
 //
 //     magnitude(numbers, sx, sy, sz)        # ExactCorrection.magnitude's |h_c|, or None
-//     survey(words, numbers, sx, sy, sz, st)   # device/survey.py Survey.sample's sums, |h_c| with them
+//     survey(words, sx, sy, sz, st)         # device/survey.py Survey.sample's sums, |h_c| with them
 //     correct(numbers, sx, sy, sz)          # ExactCorrection.correct's h_c (a tuple), or None
 //
 // h_i = floor((c_i0 e_0 + c_i1 e_1 + c_i2 e_2 - k_i) / 2^d), e_j = s_j - w_j, and
@@ -225,14 +225,19 @@ static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(magnitude_obj, 4, 4, magnitude);
 
 // ****** survey: device/survey.py Survey.sample with |h_c|, in words ******
 //
-// words (an array("i") of SURVEY_WORDS): the open block's sums of x, y, z, t and |h_c|, each a
-// 64-bit two's complement in two words (least significant first), then LEFT: the samples the
-// block still takes. A sample adds |s| < 2^31 each and |h_c| < F_LIMIT (2^47: 5.5e8 nT in
-// 1/256 milli-nT), and Survey takes words only for blocks under 2^16 samples: every sum stays
-// under 2^63.
+// words, an array("H") of SURVEY_LIMBS 16-bit limbs: the open block's sums of x, y, z, t and
+// |h_c|, each a 64-bit two's complement in four limbs (least significant first; read as 32-bit
+// words: the targets are little-endian), then LEFT: the samples the block still takes, HAS_F:
+// 1 where |h_c| is summed with the numbers at NUMBERS_AT (magnitude()'s), 0 where it is 0 (as
+// Survey.sample's f when no block goes out). One buffer, so the call takes five arguments:
+// device/survey.py's Output.sample stays within the frame MicroPython keeps off the heap. A
+// sample adds |s| < 2^31 each and |h_c| < F_LIMIT (2^47: 5.5e8 nT in 1/256 milli-nT), and
+// blocks are under 2^16 samples (LEFT is one limb): every sum stays under 2^63.
 
-#define SURVEY_WORDS (11)
-#define BLOCK_LEFT (10)
+#define SURVEY_LEFT (20)
+#define SURVEY_HAS_F (21)
+#define NUMBERS_AT (22)
+#define SURVEY_LIMBS (NUMBERS_AT + 4 * NUMBERS)
 #define F_LIMIT ((uint64_t)1 << 47)
 
 static inline void add64(uint32_t *w, uint64_t v) {
@@ -241,33 +246,33 @@ static inline void add64(uint32_t *w, uint64_t v) {
     w[1] = (uint32_t)(a >> 32);
 }
 
-// survey(words, numbers, sx, sy, sz, st): the sample into the open block, its |h_c| by
-// `numbers` (None: 0, as Survey.sample's f when no block goes out); True when it completes the
-// block, False if not, None where a sum, h_i or |h_c| is past the words or LEFT is not above
-// 0: then nothing changed (the caller runs the pure-Python way)
+// survey(words, sx, sy, sz, st): the sample into the open block; True when it completes the
+// block, False if not, None where a sum, h_i or |h_c| is past the words or LEFT is 0: then
+// nothing changed (the caller runs the pure-Python way)
 static mp_obj_t survey(size_t n_args, const mp_obj_t *args) {
     mp_buffer_info_t bufinfo;
     mp_get_buffer_raise(args[0], &bufinfo, MP_BUFFER_RW);
-    if (bufinfo.len < SURVEY_WORDS * sizeof(uint32_t)) {
-        mp_raise_ValueError(MP_ERROR_TEXT("fitsums: words holds fewer than SURVEY_WORDS words"));
+    if (bufinfo.len < SURVEY_LIMBS * sizeof(uint16_t)) {
+        mp_raise_ValueError(MP_ERROR_TEXT("fitsums: words holds fewer than SURVEY_LIMBS limbs"));
     }
-    uint32_t *w = (uint32_t *)bufinfo.buf;
+    uint16_t *limb = (uint16_t *)bufinfo.buf;
     int64_t s[4];
     uint64_t f = 0;
-    if ((int32_t)w[BLOCK_LEFT] <= 0 || !sums(args + 2, 4, s)) {
+    if (limb[SURVEY_LEFT] == 0 || !sums(args + 1, 4, s)) {
         return mp_const_none;
     }
-    if (args[1] != mp_const_none && (!hc(limbs(args[1]), s, &f) || f >= F_LIMIT)) {
+    if (limb[SURVEY_HAS_F] && (!hc(limb + NUMBERS_AT, s, &f) || f >= F_LIMIT)) {
         return mp_const_none;
     }
+    uint32_t *w = (uint32_t *)bufinfo.buf;
     for (int j = 0; j < 4; j++) {
         add64(w + 2 * j, (uint64_t)s[j]);
     }
     add64(w + 8, f);
-    w[BLOCK_LEFT] -= 1;
-    return mp_obj_new_bool(w[BLOCK_LEFT] == 0);
+    limb[SURVEY_LEFT] -= 1;
+    return mp_obj_new_bool(limb[SURVEY_LEFT] == 0);
 }
-static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(survey_obj, 6, 6, survey);
+static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(survey_obj, 5, 5, survey);
 
 // correct(numbers, sx, sy, sz): ExactCorrection.correct's h_c in milli-nT, rounded
 // ((h + 2^7) >> 8), as a tuple of small ints (|v| < 2^30 on every port), or None where a sum,

@@ -150,8 +150,15 @@ def main(root, natmod=None):
     misfit_calls = 0                         # native calls for corrections that do not fit
     more = {"correct": 0, "correct_expected": 0, "survey": 0, "survey_expected": 0}
 
+    w = array("H", [0] * 86)                 # fitsums.survey's words (hc.h SURVEY_LIMBS)
+
     def words_of(w):
-        return [(w[2 * i + 1] << 32) | (w[2 * i] & 0xFFFFFFFF) for i in range(5)] + [w[10]]
+        """fitsums.survey's words (hc.h): the five sums (64-bit two's complements) and LEFT."""
+        out = []
+        for i in range(0, 20, 4):
+            v = w[i] | (w[i + 1] << 16) | (w[i + 2] << 32) | (w[i + 3] << 48)
+            out.append(v - (1 << 64) if v >> 63 else v)
+        return out + [w[20]]
 
     def natives(ex, sx, sy, sz, fit, f):
         """fitsums.correct and fitsums.survey beside the pure methods: the mismatches."""
@@ -164,19 +171,24 @@ def main(root, natmod=None):
         bad += ex.correct(sx, sy, sz) != ref or (b is not None and b != ref)
         if survey is None or ex._native is None:
             return bad
-        w = array("i", [0] * 11)
-        w[10] = 2
-        r = survey(w, ex._native, sx, sy, sz, sz)
+        for i in range(22):                  # the words (one array: a small heap fragments)
+            w[i] = 0
+        for i in range(64):
+            w[22 + i] = ex._native[i]
+        w[20] = 2                            # LEFT 2, |h_c| summed with the numbers
+        w[21] = 1
+        r = survey(w, sx, sy, sz, sz)
         if fit and f is not None and f < 1 << 47:
             more["survey_expected"] += 1
         if r is None:
             return bad + (words_of(w) != [0] * 5 + [2])      # refused: nothing changed
         more["survey"] += 1
         bad += r is not False or words_of(w) != [sx, sy, sz, sz, f, 1]
-        # a second sample without |h_c| (None: 0) completes the block; then the count refuses
-        r = survey(w, None, sy, sz, sx, -7)
+        # a second sample without |h_c| (HAS_F 0: 0) completes the block; then the count refuses
+        w[21] = 0
+        r = survey(w, sy, sz, sx, -7)
         bad += r is not True or words_of(w) != [sx + sy, sy + sz, sz + sx, sz - 7, f, 0]
-        return bad + (survey(w, None, 0, 0, 0, 0) is not None)
+        return bad + (survey(w, 0, 0, 0, 0) is not None)
 
     def run(ex, sums):
         nonlocal expected, mismatched

@@ -1,7 +1,8 @@
 # Runs on the emulated Pico (desktop/bench/pico_survey.py): device/survey.py's Output with the
 # stream corrected, on survey_stand_ins.py (a data event's members are made, not sent). Reads /disk/job.json {"cal": record, "window": n, "per_block": n, "sums": [[sx, sy,
 # sz], ...], "screen_sums": the same with flipped bits}; prints one JSON line, emulated us: per
-# decimated sample through Output.sample (the block outputs included), per |h_c| alone, per
+# decimated sample through Output.sample (the block outputs included; on an emptied heap,
+# then with it as full as the firmware's after boot), per |h_c| alone, per
 # block output alone, per spike screen push (device/screen.py, on screen_sums: after a
 # collection, and again with the heap as full as the firmware's after boot; where its push is
 # native, the pure-Python push too); each after a collection, the collections it causes included.
@@ -38,6 +39,14 @@ def main():
     for s in sums:
         o.sample(s[0], s[1], s[2], 0)
     per_sample = time.ticks_diff(time.ticks_us(), t0) / len(sums)
+    # again with the heap as full as the firmware's after boot (a heap allocation searches it)
+    ballast = _ballast()
+    gc.collect()
+    t0 = time.ticks_us()
+    for s in sums:
+        o.sample(s[0], s[1], s[2], 0)
+    per_sample_full = time.ticks_diff(time.ticks_us(), t0) / len(sums)
+    ballast = None
     # |h_c| alone: the integer correction, or the float one it replaced (cal_w)
     corr = getattr(o, "exact_w", None) or getattr(o, "cal_w", None)
     gc.collect()
@@ -64,7 +73,7 @@ def main():
         out["py_screen"], out["py_screen_full"] = _screen(cfg, screen_sums, False)[:2]
     sums = None
     out["screen"], out["screen_full"], out["screen_spikes"] = _screen(cfg, screen_sums)[:3]
-    out.update({"per_sample": per_sample, "magnitude": magnitude, "block": block, "path": path,
+    out.update({"per_sample": per_sample, "per_sample_full": per_sample_full, "magnitude": magnitude, "block": block, "path": path,
                 "magnitude_path": getattr(corr, "path", "python")})
     print(json.dumps(out))
 
