@@ -33,14 +33,15 @@ def json_number(x, nd=3):
     return round(x, nd)
 
 
-FIXED3 = "%s%d.%02d, %s%d.%02d, %s%d.%02d"      # three hundredths, each three of parts3()
-FIXED3M = "%s%d.%03d, %s%d.%03d, %s%d.%03d"     # three thousandths (milli-nT)
-# the survey's per-block events (device/survey.py), each one format: the raw and data events'
-# heads with the temperature's "%.2f" ([0]) or, when it is not a number, "%s" of "null" ([1]);
-# the data event's members
-RAW_HEAD = tuple('"t": %d, "n": %d, "c": [' + FIXED3 + '], "temp": ' + tf for tf in ("%.2f", "%s"))
-DATA_HEAD = tuple('"t": %d, "temp": ' + tf + ', "c": [' + FIXED3 + '], "cal": %s, "warn": %s' for tf in ("%.2f", "%s"))
-DATA_B = '"b": [' + FIXED3M + '], "f": %d.%03d'
+# the survey's per-block events (device/survey.py), each one format, written out (not joined
+# at import: the heap): the raw and data events' heads with the temperature's "%.2f" ([0]) or,
+# when it is not a number, "%s" of "null" ([1]), their mean codes in hundredths; the data
+# event's members, h_c and |h_c| in thousandths; each number three parts of parts3()
+RAW_HEAD = ('"t": %d, "n": %d, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "temp": %.2f',
+            '"t": %d, "n": %d, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "temp": %s')
+DATA_HEAD = ('"t": %d, "temp": %.2f, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "cal": %s, "warn": %s',
+             '"t": %d, "temp": %s, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "cal": %s, "warn": %s')
+DATA_B = '"b": [%s%d.%03d, %s%d.%03d, %s%d.%03d], "f": %d.%03d'
 
 
 def parts3(a, b, c, p):

@@ -41,7 +41,7 @@ import json
 from array import array
 
 from flashlog import RotatingLog
-from protocol import DATA_B, DATA_HEAD, FIXED3M, RAW_HEAD, hundredths, json_number, parts3
+from protocol import DATA_B, DATA_HEAD, RAW_HEAD, hundredths, json_number, parts3
 from screen import Screen
 from shared.delag import DELAY, Delag, configured_tau_s, tau_us
 from shared.fixedpoint import FRACTION_BITS, ExactCorrection
@@ -65,9 +65,8 @@ _EXTRAPOLATE_C = 10.0     # and are applied at most this far outside it (held th
 
 
 # a block's texts, each one format (protocol.py's; a format costs ~6 k cycles an item on an
-# RP2040, a string made and dropped more in the collections it brings); the log line's numbers
-# without the ", " (no part holds one)
-_LOG = "%d," + FIXED3M.replace(", ", ",") + ",%d.%03d,%.2f\n"
+# RP2040, a string made and dropped more in the collections it brings); the log line's
+_LOG = "%d,%s%d.%03d,%s%d.%03d,%s%d.%03d,%d.%03d,%.2f\n"
 
 
 class Survey:
@@ -258,22 +257,23 @@ class Output:
     def sample(self, rx, ry, rz, rt):
         # a frame of at most 11 slots (arguments reused as locals, the value stack): a larger one
         # is a heap allocation a call (py/objfun.c VM_MAX_STATE_ON_STACK), ~35 k cycles on an
-        # RP2040 with the heap as full as after boot. Sessions, and no fitsums.survey: _sample
+        # RP2040 with the heap as full as after boot
         if not self.screen.push(rx, ry, rz, rt):
             return self._dropped()
-        rx = self._words
-        if rx is None or self.session is not None:
-            return self._sample()
         ry = self.screen
         if self._delag_on:
             rz = self.delag
             if not rz.push(ry.x, ry.y, ry.z, ry.t):
                 return
             ry = rz
+        rz = self.session
+        if rz is not None:
+            rz.sample(ry.x, ry.y, ry.z)
         # |h_c| per decimated sample in 1/256 milli-nT, summed with the block's sums in C: no
         # int object made (a big int on a 32-bit port, and the collections it brings)
-        rz = _native_survey(rx, ry.x, ry.y, ry.z, ry.t)
-        if rz is None:         # past the C's words: the same sample in Python
+        rx = self._words
+        rz = None if rx is None else _native_survey(rx, ry.x, ry.y, ry.z, ry.t)
+        if rz is None:         # no fitsums.survey, the float |h_c|, or past its words: in Python
             return self._survey(ry.x, ry.y, ry.z, ry.t)
         return self._output(self.survey.finish()) if rz else None
 
@@ -286,35 +286,8 @@ class Output:
                 self.session.clipped += 1
                 self.session.clip_axis = sc.clip_axis
 
-    def _sample(self):
-        """The screened sample de-lagged, to the session, then to the survey."""
-        sc = self.screen
-        sx = sc.x
-        sy = sc.y
-        sz = sc.z
-        st = sc.t
-        if self._delag_on:
-            dl = self.delag
-            if not dl.push(sx, sy, sz, st):
-                return
-            sx = dl.x
-            sy = dl.y
-            sz = dl.z
-            st = dl.t
-        s = self.session
-        if s is not None:
-            s.sample(sx, sy, sz)
-        self._survey(sx, sy, sz, st)
-
     def _survey(self, sx, sy, sz, st):
         # |h_c| per decimated sample in 1/256 milli-nT, averaged over the block (rotation invariant)
-        words = self._words
-        if words is not None:
-            done = _native_survey(words, sx, sy, sz, st)
-            if done is not None:
-                if done:
-                    self._output(self.survey.finish())
-                return
         f = 0
         if self._want_f:
             ex = self.exact_w

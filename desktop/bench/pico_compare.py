@@ -102,7 +102,7 @@ def spin_noise(values):
 def print_tables(pico, mp, f, parts=None):
     from desktop.bench.pico import PARTS
     parts = parts or PARTS
-    plain, prof = pico["plain"], pico["profiled"]
+    plain, prof = pico["plain"], pico.get("profiled")     # None: the profiled session failed
     pc, ps = plain["calibrating"], plain["survey"]
     rows = [
         ("deploy (.mpy, empty flash)", "%.1f wall s" % pico["deploy_wall_s"], "mpy-cross, mpremote, the emulator"),
@@ -113,11 +113,12 @@ def print_tables(pico, mp, f, parts=None):
         ("heap free in survey: end / lowest sampled", "%d / %d B" % (ps["mem_free"], ps["mem_free_min"]), ""),
         ("missed conversions / ring overflows", "%d / %d" % (ps["missed"], ps["overflow"]), "the firmware's counts"),
     ]
-    for label, w, p in (("calibrating", pc, prof["calibrating"]), ("survey, stream on", ps, prof["survey"])):
+    for label, w, key in (("calibrating", pc, "calibrating"), ("survey, stream on", ps, "survey")):
         est = m3_estimate(f, label.split(",")[0], 0, True)
         rows.append(("CPU load %s (cycles awake / cycles)" % label, "%.1f %%" % (100 * w["load"]),
-                     "Cortex-M3 estimate %s, measured / estimate %s; profiled %.1f %%" % (
-                         _pct(est), _ratio(w["awake_cycles"] / w["emulated_s"], est), 100 * p["load"])))
+                     "Cortex-M3 estimate %s, measured / estimate %s; profiled %s" % (
+                         _pct(est), _ratio(w["awake_cycles"] / w["emulated_s"], est),
+                         "-" if prof is None else "%.1f %%" % (100 * prof[key]["load"]))))
         rows.append(("DRDY to read, %s: mean / worst" % label, "%.0f / %.0f us" % (w["latency_us"], w["latency_max_us"]),
                      "%d reads; %d conversions not read (decimation, by design)" % (w["reads"], w["unread"])))
         s = w["emulated_s"]
@@ -130,12 +131,17 @@ def print_tables(pico, mp, f, parts=None):
     print("|---|---|---|")
     for name, fig, note in rows:
         print("| %s | %s | %s |" % (name, fig, note))
-    part_table("calibrating", prof["calibrating"], pc, f, False, parts)
-    part_table("survey", prof["survey"], ps, f, True, parts)
+    if prof is None:
+        print("\n(no split by part: the profiled session failed: %s)" % pico.get("profiled_error"))
+    else:
+        part_table("calibrating", prof["calibrating"], pc, f, False, parts)
+        part_table("survey", prof["survey"], ps, f, True, parts)
     print("\n#### A hand calibration's spin: PTP of the streamed |B| over one turn a second\n")
     print("| runtime | calibration (n, rms nT) | blocks | PTP (nT) | sigma of a block (nT) | PTP's noise, 1 sd (nT) |")
     print("|---|---|---|---|---|---|")
     for name, run in (("emulated Pico", plain), ("emulated Pico, profiled", prof), ("micropython", mp)):
+        if run is None:
+            continue
         r = run["result"]
         ptp, sigma, sd = spin_noise(run["spin"])
         print("| %s | %s, %s | %d | %.3f | %.3f | %.3f |" % (name, r.get("n"), r.get("rms"), len(run["spin"]),
