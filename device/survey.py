@@ -154,6 +154,10 @@ class Output:
         self.screen = Screen(self.scale, c["window"], c["spike_nt"])
         self._clipped = 0
         self.delag = Delag(c["window"])
+        # the gates' break_chain reached through this Output, never bound: held by the de-lag, the
+        # gates' bound method kept an ended session's gates, fit and their modules' bytecode alive
+        # into the next (a second calibration needed 256 KB of a 32-bit heap, 210 KB without)
+        self.delag.on_hole = self._hole
         self._f_unit = 1000.0 * (1 << FRACTION_BITS) / c["window"]   # nT of a window's sums -> |h_c|'s unit
         if c["log"] and self.log is None:
             self.log = RotatingLog(self.board.root, c["log_file_bytes"], c["log_files"], c["log_reserve_bytes"])
@@ -246,13 +250,17 @@ class Output:
         # it and the de-lag fills it (screen.py bridge, shared/delag.py join), else both restart
         s = self.session
         dl = self.delag
-        dl.on_hole = None if s is None else s.break_chain
         if missing == 1 and self._delag_on and dl.can_join() and self.screen.bridge(dl.join):
             return
         self.screen.reset()
         dl.reset()
         if s is not None:
             s.break_chain()
+
+    def _hole(self):
+        """The de-lag's on_hole: the sample after a bridged hole has no neighbour for the gates."""
+        if self.session is not None:
+            self.session.break_chain()
 
     def sample(self, rx, ry, rz, rt):
         # a frame of at most 11 slots (arguments reused as locals, the value stack): a larger one

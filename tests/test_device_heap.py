@@ -62,3 +62,30 @@ def test_session_modules_leave_and_return_the_same(name, micropython, bench_fold
     assert all(d < k for d, k in zip(dropped["heap"], kept["heap"])), (dropped["heap"], kept["heap"])
     assert dropped["cals"] == kept["cals"]
     assert dropped["cals"][1] == dropped["cals"][0]
+
+
+def test_nothing_holds_an_ended_session(tmp_path):
+    """Once a calibration ends, nothing the firmware keeps refers to its session, its gates or its fit:
+    held (as the de-lag's on_hole held the gates' bound break_chain), they and the bytecode of the
+    modules the flow drops would stay on the heap into the next session (a second calibration then
+    needed 256 KB of a 32-bit heap, not 210)."""
+    import gc
+    import weakref
+
+    from tests.device_session import ask, boot
+
+    w, dev = boot(tmp_path, motion="hand", seconds=20.0)
+    ask(w, dev, "start-cal full hold")
+    dev.run_until(w.time + 3.0)
+    s = dev.app.flow.session
+    held = [weakref.ref(s), weakref.ref(s.gates), weakref.ref(s.fit)]
+    s = None
+    for missing in (1, 3):              # blocks lost (acq.poll's on_gap): a polled board's usual
+        dev.app._gap_cb(missing)        # one, bridged where it can be, and a longer one
+    dev.run_until(w.time + 1.0)
+    ask(w, dev, "finish-cal", dt=2.0)
+    dev.run_until(w.time + 1.0)
+    gc.collect()
+    assert dev.app.flow.session is None
+    assert [r() for r in held] == [None] * 3, [gc.get_referrers(r()) for r in held if r() is not None]
+    dev.close()
