@@ -201,7 +201,7 @@ class Gates:
             self.rej_rate += 1   # no direction (a dead front end): nothing to place
             return False
         # 2. coverage cell cap: shared.coverage.Coverage.cell inlined (a method call each is
-        # ~2 k cycles on an RP2040; tests/test_device_gates.py holds them equal)
+        # ~2 k cycles on an RP2040; tests/test_device_gates_cells.py holds them equal on every boundary)
         cov = self.cov
         ax = x if x >= 0 else -x
         ay = y if y >= 0 else -y
