@@ -22,7 +22,7 @@ pico-frozen: $(STAMP)
 	$(BIN)/python -m desktop.firmware.interpreters build rp2-pico rp2-pico-frozen
 
 test: $(STAMP) interpreters
-	$(BIN)/python -m pytest -q -n 2
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal --durations=15
 
 demo: $(STAMP)
 	$(BIN)/fluxcal demo

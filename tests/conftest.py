@@ -31,3 +31,22 @@ def mpy_cross():
 @pytest.fixture(scope="session")
 def root():
     return ROOT
+
+
+# The longest tests (a minute or more each on a 2-core CI machine: the emulated Pico, the wheel's
+# venvs, the laptop's chain) are collected first, so that `make test`'s two workers (pytest -n 2
+# --dist worksteal) start them early and end together on short ones, not with one long test
+# running alone at the end. Order only: nothing here skips or changes a test.
+_LONG_FIRST = (
+    "test_pico_laptop.py", "test_deploy_wheel.py", "test_cli_experiment.py", "test_laptop_chain.py",
+    "test_native_magnitude.py", "test_device_slow_sensor.py", "test_survey_record.py",
+    "test_native_gates.py", "test_native_screen.py", "test_pico_frozen.py", "test_native_sums.py",
+    "test_deploy.py", "test_native_delag.py", "test_native_drdy.py", "test_cli.py",
+)
+
+
+def pytest_collection_modifyitems(items):
+    rank = {name: i for i, name in enumerate(_LONG_FIRST)}
+    last = len(_LONG_FIRST)
+    # sort() is stable: within a file, and among the rest, the collection order stays
+    items.sort(key=lambda item: rank.get(os.path.basename(str(item.fspath)), last))
