@@ -40,6 +40,15 @@ The accepted samples' last HIST stay in a ring (`hist`: x, y, z, sample index,
 cell): the back-off removes from it, and the session reads it for the
 residuals' sample-to-sample correlation (session.py); their batch sums over the
 whole session (residuals.py) give the predicted error's widening.
+
+Native: where deploy installed gatesc.mpy (device/native/gatesc.c; MicroPython boards of a
+matching architecture) a Gates' `sample` is in C: the gates above with the exact |h_c|, and
+for a sample taken fit.add, the cell's count, batches.added() and the hist ring, on the same
+state (`_st`, `_ring`, `hist`); it hands the rest (the float |h_c|, the back-off, the tau sums,
+sums past its words) to Gates.sample, the reference, before changing anything. A Python
+sample frame here is a heap allocation (over 11 slots) plus ~2 k cycles a method call on an
+RP2040: 62 -> 29 k cycles a sample, 109 -> 38 k with the disturbance gate
+(tests/test_native_gatesc.py holds the two equal; `path` says which runs).
 """
 
 import math
@@ -50,11 +59,22 @@ from shared.coverage import TAN_BITS
 from shared.delag import configured_tau_s, lag_dps, sensor_tau_s
 from shared.fixedpoint import FRACTION_BITS, NATIVE, ExactCorrection
 
+try:
+    # Gates.sample in C where deploy installed the board's gatesc.mpy (MicroPython; ValueError:
+    # a .mpy of another architecture or version); CPython and CircuitPython run the Python
+    from gatesc import Sample as _NativeSample
+except (ImportError, ValueError):
+    _NativeSample = None
+
 HIST = 256           # recent accepted samples kept for removal (5 ints each)
 _RUN = 3             # consecutive outliers that make a disturbance
 _GATE_BITS = 14      # gate/cell arithmetic: |v| < 2**14, so |v|^2 sums stay < 2**30
 _G_SHIFT = 16        # rate gate: d^2 > (r^2 >> 16) * round(angle^2 * 2**16)
 _MAX_STRIDE = 64     # rate gate baseline, samples (0.64 s at 100 samples/s)
+# Gates._st, one array("i") that sample() and device/native/gatesc.c share: the counters and the
+# chain's state, then the constants (an index costs what an attribute does on MicroPython)
+(_SEEN, _REJ_RATE, _REJ_CAP, _REJ_DIST, _FRESH, _FILLED, _RI, _RUN_N, _HOLD, _HIST_N, _HIST_I,
+ _SH, _CX, _CY, _CZ, _STRIDE, _G, _CAP, _EDGE, _BACK, _PROV, _STATE) = range(22)
 
 
 def gate_dps(cfg, polled=False):
@@ -92,35 +112,28 @@ def zeros(n):
 
 
 class Gates:
-    def __init__(self, cfg, fit, cov, window, period_ms, centre, polled=False):
+    def __init__(self, cfg, fit, cov, window, period_ms, centre, polled=False, native=True):
         self.fit = fit
         self.cov = cov
         # shift that brings a full-scale sum (window * 2**23 codes) below 2**14
         sh = 0
         while (window << 23) >> sh >= (1 << _GATE_BITS):
             sh += 1
-        self._sh = sh
-        self._cx = centre[0] >> sh
-        self._cy = centre[1] >> sh
-        self._cz = centre[2] >> sh
-        self.seen = 0
-        self.rej_rate = 0
-        self.rej_dist = 0
-        self.rej_cap = 0
+        self._st = st = zeros(_STATE)
+        st[_SH] = sh
+        st[_CX] = centre[0] >> sh
+        st[_CY] = centre[1] >> sh
+        st[_CZ] = centre[2] >> sh
+        st[_FRESH] = 1              # no previous sample to compare with
         self.removed = 0
         self.provisional = None     # use_provisional: the fit the disturbance gate judges with
         self._exact = None          # ... as shared.fixedpoint's |h_c| in C, where the port has it
         self.dist_limit = cfg["outlier_nt"]
-        self._cap = cfg["cell_cap"]
-        self._cuts = cov._cuts      # the coverage cells, read inline in sample()
-        self._edge = cov.edge
+        st[_CAP] = cfg["cell_cap"]
+        self._cuts = array("i", cov._cuts)      # the coverage cells, read inline in sample()
+        st[_EDGE] = cov.edge
         self._counts = cov.counts
-        self._fresh = True          # no previous sample to compare with
-        self._dist_run = 0
-        self._hold = 0              # samples still to reject after a disturbance
         self.hist = zeros(5 * HIST)  # x, y, z, sample index, cell
-        self.hist_n = 0
-        self.hist_i = 0
         # the tau estimate (session.py attach): the Delag whose .ex .ey .ez are the current
         # sample's tau steps, the accumulators they go into, and the accepted ones' steps
         # beside hist (x, y, z each)
@@ -128,7 +141,7 @@ class Gates:
         self.tau_sums = None
         self.hist_e = None
         self.batches = ResidualBatches(fit, centre)   # the residuals' correlation over the session
-        self.back = int(1000 / period_ms) + 1   # samples in one second (backoff)
+        self.back = st[_BACK] = int(1000 / period_ms) + 1   # samples in one second (backoff)
         self.gate_dps = gate_dps(cfg, polled)
         g = self.gate_dps * math.pi / 180.0 * period_ms / 1000.0
         # compare with the sample `stride` back, so the allowed turn is >= 1/64 rad: a few
@@ -136,12 +149,25 @@ class Gates:
         stride = 1
         while g * stride < 0.016 and stride < _MAX_STRIDE:
             stride += 1
-        self._stride = stride
+        st[_STRIDE] = stride
         self._ring = array("i", bytes(4 * 3 * stride))   # the last `stride` shifted samples
-        self._ri = 0
-        self._filled = 0
         g = g * stride
-        self._g = max(1, int(g * g * (1 << _G_SHIFT) + 0.5))   # max squared turn angle per stride
+        st[_G] = max(1, int(g * g * (1 << _G_SHIFT) + 0.5))   # max squared turn angle per stride
+        # sample() in C where gatesc.mpy loads (native=False: the class's, the reference, as
+        # the tests compare them): an instance attribute, found before the method, holding
+        # these gates and Gates.sample for what it hands back
+        self.path = "python"
+        if native and _NativeSample is not None:
+            self.sample = _NativeSample(self, Gates.sample)
+            self.path = "native"
+
+    # the counters, read by session.py, lagfit.py and residual_stats.py
+    seen = property(lambda self: self._st[_SEEN])
+    rej_rate = property(lambda self: self._st[_REJ_RATE])
+    rej_cap = property(lambda self: self._st[_REJ_CAP])
+    rej_dist = property(lambda self: self._st[_REJ_DIST])
+    hist_n = property(lambda self: self._st[_HIST_N])
+    hist_i = property(lambda self: self._st[_HIST_I])
 
     def use_provisional(self, cal, dist_limit):
         """Judge disturbances against `cal` (sum units; None: not yet) at `dist_limit` nT. Where
@@ -149,6 +175,7 @@ class Gates:
         integers in 1/2**FRACTION_BITS milli-nT: ~20 k cycles a sample on an RP2040 against
         ~95 k for the float |h_c|, whose every operation allocates (docs/benchmarks.md)."""
         self.provisional = cal
+        self._st[_PROV] = cal is not None
         self.dist_limit = dist_limit
         self._exact = None
         if cal is not None and NATIVE:
@@ -166,39 +193,47 @@ class Gates:
                 self._lo_q = field - limit
                 self._hi_settled_q = field + settled
                 self._lo_settled_q = field - settled
+                # and for gatesc.mpy, which judges in C (_PROV 2): the correction's limbs and the
+                # bounds' (each a 64-bit two's complement in 16-bit limbs, hc.h's number())
+                bounds = (self._hi_q, self._lo_q, self._hi_settled_q, self._lo_settled_q)
+                if max(bounds) < 1 << 62 and min(bounds) > -1 << 62:
+                    self._bounds = array("H", [(v >> k) & 0xFFFF for v in bounds for k in (0, 16, 32, 48)])
+                    self._st[_PROV] = 2
 
     def break_chain(self):
         """Samples were lost: the next one has no neighbour to gate its turn rate against."""
-        self._fresh = True
+        self._st[_FRESH] = 1
 
     def sample(self, sx, sy, sz):
-        """Gate one decimated sample; return True if it went into the fit."""
-        self.seen += 1
-        sh = self._sh
-        x = (sx >> sh) - self._cx
-        y = (sy >> sh) - self._cy
-        z = (sz >> sh) - self._cz
-        if self._fresh:
-            self._fresh = False
-            self._filled = 0
+        """Gate one decimated sample; return True if it went into the fit. (Where gatesc.mpy
+        loads, the instance's `sample` is its C version of this: device/native/gatesc.c.)"""
+        st = self._st
+        st[_SEEN] += 1
+        sh = st[_SH]
+        x = (sx >> sh) - st[_CX]
+        y = (sy >> sh) - st[_CY]
+        z = (sz >> sh) - st[_CZ]
+        if st[_FRESH]:
+            st[_FRESH] = 0
+            st[_FILLED] = 0
         r = self._ring
-        i = self._ri * 3
+        i = st[_RI] * 3
         dx = x - r[i]
         dy = y - r[i + 1]
         dz = z - r[i + 2]
         r[i] = x
         r[i + 1] = y
         r[i + 2] = z
-        self._ri = (self._ri + 1) % self._stride
-        if self._filled < self._stride:
-            self._filled += 1
+        st[_RI] = (st[_RI] + 1) % st[_STRIDE]
+        if st[_FILLED] < st[_STRIDE]:
+            st[_FILLED] += 1
             return False
         # 1. rotation rate: chord^2 > angle^2 |r|^2, in small ints
-        if dx * dx + dy * dy + dz * dz > ((x * x + y * y + z * z) >> _G_SHIFT) * self._g:
-            self.rej_rate += 1
+        if dx * dx + dy * dy + dz * dz > ((x * x + y * y + z * z) >> _G_SHIFT) * st[_G]:
+            st[_REJ_RATE] += 1
             return False
         if not (x or y or z):
-            self.rej_rate += 1   # no direction (a dead front end): nothing to place
+            st[_REJ_RATE] += 1   # no direction (a dead front end): nothing to place
             return False
         # 2. coverage cell cap: shared.coverage.Coverage.cell inlined (a method call each is
         # ~2 k cycles on an RP2040; tests/test_device_gates_cells.py holds them equal on every boundary)
@@ -230,17 +265,17 @@ class Gates:
                 i += 1
             if q >= c:
                 j += 1
-        e = self._edge
+        e = st[_EDGE]
         cell = (face * e + i) * e + j
         n = self._counts[cell]
-        if n >= self._cap:
-            self.rej_cap += 1
+        if n >= st[_CAP]:
+            st[_REJ_CAP] += 1
             return False
         # 3. disturbance, against the provisional fit, only where it interpolates:
         # in a cell that already holds samples, and once its predicted error is
         # well below the gate. A new orientation is never called a disturbance.
         pc = self.provisional
-        if pc is not None and (n >= 3 or self._hold):
+        if pc is not None and (n >= 3 or st[_HOLD]):
             ex = self._exact
             if ex is not None:
                 m = ex.magnitude(sx, sy, sz)
@@ -249,22 +284,22 @@ class Gates:
                 m = abs(pc.magnitude(sx, sy, sz) - pc.field)   # the deviation, nT
                 out = m > self.dist_limit
             if out:
-                self.rej_dist += 1
-                self._dist_run += 1
-                if self._dist_run == _RUN:
+                st[_REJ_DIST] += 1
+                st[_RUN_N] += 1
+                if st[_RUN_N] == _RUN:
                     self._backoff()   # a disturbance, not a lone outlier: its onset went in
-                    self._hold = self.back
+                    st[_HOLD] = self.back
                 return False
-            self._dist_run = 0
-            if self._hold:
+            st[_RUN_N] = 0
+            if st[_HOLD]:
                 # back-off: a dipole's 1/r^3 tail stays above the noise long after it
                 # falls under the gate; hold until it is under a tenth of the gate for 1 s
-                self.rej_dist += 1
+                st[_REJ_DIST] += 1
                 if (m > self._hi_settled_q or m < self._lo_settled_q) if ex is not None else \
                         m > 0.1 * self.dist_limit:
-                    self._hold = self.back
+                    st[_HOLD] = self.back
                 else:
-                    self._hold -= 1
+                    st[_HOLD] -= 1
                 return False
         self.fit.add(sx, sy, sz)
         cov.add_to(cell)
@@ -273,29 +308,30 @@ class Gates:
             lg = self.lag
             ts.add(sx, sy, sz, lg.ex, lg.ey, lg.ez)
             he = self.hist_e
-            i = self.hist_i * 3
+            i = st[_HIST_I] * 3
             he[i] = lg.ex
             he[i + 1] = lg.ey
             he[i + 2] = lg.ez
         self.batches.added()        # after the tau nodes took it: a batch may close on it
         h = self.hist
-        i = self.hist_i * 5
+        i = st[_HIST_I] * 5
         h[i] = sx
         h[i + 1] = sy
         h[i + 2] = sz
-        h[i + 3] = self.seen
+        h[i + 3] = st[_SEEN]
         h[i + 4] = cell
-        self.hist_i = (self.hist_i + 1) % HIST
-        if self.hist_n < HIST:
-            self.hist_n += 1
+        st[_HIST_I] = (st[_HIST_I] + 1) % HIST
+        if st[_HIST_N] < HIST:
+            st[_HIST_N] += 1
         return True
 
     def last_direction(self):
         """[x, y, z] of the latest sample about the centre (14-bit sums, as the cells see it):
         where the sensor points now, for the progress event; None before the first sample."""
-        if not self.seen:
+        st = self._st
+        if not st[_SEEN]:
             return None
-        i = ((self._ri - 1) % self._stride) * 3
+        i = ((st[_RI] - 1) % st[_STRIDE]) * 3
         r = self._ring
         return [r[i], r[i + 1], r[i + 2]]
 
@@ -303,10 +339,11 @@ class Gates:
         """Remove samples accepted in the second before a disturbance was detected."""
         h = self.hist
         back = self.back
-        while self.hist_n:
-            j = (self.hist_i - 1) % HIST
+        st = self._st
+        while st[_HIST_N]:
+            j = (st[_HIST_I] - 1) % HIST
             i = j * 5
-            if self.seen - h[i + 3] > back:
+            if st[_SEEN] - h[i + 3] > back:
                 break
             self.fit.remove(h[i], h[i + 1], h[i + 2])
             if self.tau_sums is not None:
@@ -316,6 +353,6 @@ class Gates:
             else:
                 self.batches.removed(h[i], h[i + 1], h[i + 2])
             self.cov.remove_from(h[i + 4])
-            self.hist_i = j
-            self.hist_n -= 1
+            st[_HIST_I] = j
+            st[_HIST_N] -= 1
             self.removed += 1

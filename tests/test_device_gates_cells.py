@@ -61,12 +61,12 @@ def test_the_gates_cell_is_the_coverage_cell(cells):
     fit = EllipsoidFit()
     cov = Coverage(cells, cfg["cell_cap"])
     g = gates.Gates(cfg, fit, cov, window, 10.0, [0, 0, 0])
-    g._g = 1 << 40            # no turn is too fast: every sample reaches the cells
-    sh = g._sh
+    g._st[gates._G] = (1 << 31) - 1   # no turn is too fast: every sample reaches the cells
+    sh = g._st[gates._SH]
     checked = 0
     for d in directions(cells, random.Random(cells)):
         g.break_chain()       # each direction on its own: the stride's first sample is not gated
-        for _ in range(g._stride):
+        for _ in range(g._st[gates._STRIDE]):
             g.sample(d[0] << sh, d[1] << sh, d[2] << sh)
         assert g.sample(d[0] << sh, d[1] << sh, d[2] << sh)
         i = ((g.hist_i - 1) % gates.HIST) * 5

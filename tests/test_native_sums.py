@@ -89,7 +89,8 @@ def on_the_emulated_pico(tmp_path, script, module="fitsums", sources=None):
     from desktop.firmware.interpreters import pico_parts
     from desktop.firmware.natmod import natmod_path
 
-    natmod = natmod_path("armv6m", module) or _missing("no %s.mpy for armv6m: make interpreters" % module)
+    modules = (module,) if isinstance(module, str) else module      # one native module, or several
+    natmods = [natmod_path("armv6m", m) or _missing("no %s.mpy for armv6m: make interpreters" % m) for m in modules]
     cross = pico_parts()["mpy_cross"]
     name = os.path.basename(script)[:-3]
     for source in _sources(sources):
@@ -97,7 +98,8 @@ def on_the_emulated_pico(tmp_path, script, module="fitsums", sources=None):
         out.parent.mkdir(parents=True, exist_ok=True)
         subprocess.run([cross, "-o", str(out), os.path.join(REPO, source)], check=True)
     subprocess.run([cross, "-o", str(tmp_path / "disk" / (name + ".mpy")), script], check=True)
-    shutil.copyfile(natmod, tmp_path / "disk" / (module + ".mpy"))
+    for m, natmod in zip(modules, natmods):
+        shutil.copyfile(natmod, tmp_path / "disk" / (m + ".mpy"))
     with PicoBoard(str(tmp_path / "pico.flash"), ) as board:
         run = "import sys; sys.path.insert(0, '/disk'); import %s; %s.main('/disk', '/disk')" % (name, name)
         return output([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", str(tmp_path / "disk"),

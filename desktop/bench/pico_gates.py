@@ -6,9 +6,9 @@
 What: micropython-scripts/pico_gates.py runs device/gates.py's Gates.sample on 800 samples of a
 slow spiral over the sphere at the config's defaults, on the rp2 port's firmware in the RP2040
 emulator (the modules as .mpy from the Pico's own mpy-cross, the native modules for armv6m as
-deploy installs them), once without a provisional calibration and once judged against one (the
-disturbance gate's exact |h_c|): emulated time per call, add() and the residual batches of the
-samples taken included; x 125 gives cycles (125 MHz).
+deploy installs them: Gates.sample in C where gatesc.mpy is built), once without a provisional
+calibration and once judged against one (the disturbance gate's exact |h_c|): emulated time per
+call, add() and the residual batches of the samples taken included; x 125 gives cycles (125 MHz).
 """
 
 import argparse
@@ -50,8 +50,8 @@ def main(argv=None):
     got = run_on_pico(lambda disk: _disk(disk, source), "pico_gates")
     if got is None:
         return 1
-    print("| calibration gates on the emulated Pico (Gates.sample; |h_c| %s; %s) | emulated us | cycles |"
-          % (got["magnitude"], source))
+    print("| calibration gates on the emulated Pico (Gates.sample %s; |h_c| %s; %s) | emulated us | cycles |"
+          % (got.get("gates", "python"), got["magnitude"], source))
     print("|---|---|---|")
     for key, label in (("first", "a sample, no provisional calibration (%d of 800 taken)" % got["taken"]),
                        ("provisional", "a sample, the disturbance gate on (%d of 800 taken)" % got["taken_provisional"])):

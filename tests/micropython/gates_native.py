@@ -33,17 +33,21 @@ def inverse(m):
             [(d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det]]
 
 
-def samples():
+def step(i):
+    """The disturbance, nT along x: 300 nT for DISTURBED's samples."""
+    return 300.0 if DISTURBED[0] <= i < DISTURBED[1] else 0.0
+
+
+def samples(disturbance=step):
     """The sums of a turn at ~30 deg/s along a spiral over the sphere (made as they are taken:
-    a list of them is more than a small heap holds)."""
+    a list of them is more than a small heap holds), `disturbance(i)` nT added along x."""
     mi = inverse(matrix())
     for i in range(N):
         t = i / 100.0
         theta = math.acos(1.0 - 2.0 * (i + 0.5) / N)     # pole to pole once
         phi = 0.5 * t                                  # ~0.5 rad/s around
         h = [F * math.sin(theta) * math.cos(phi), F * math.sin(theta) * math.sin(phi), F * math.cos(theta)]
-        if DISTURBED[0] <= i < DISTURBED[1]:
-            h[0] += 300.0
+        h[0] += disturbance(i)
         yield [int(round(mi[r][0] * h[0] + mi[r][1] * h[1] + mi[r][2] * h[2] + OFFSET[r])) for r in range(3)]
 
 

@@ -3,7 +3,8 @@
 # emulated us (x 125: cycles), on a slow spiral over the sphere at the config's defaults (window
 # 2, 100 samples a second): once without a provisional calibration (the rate gate, the coverage
 # cell, add() and the batches of what is taken) and once with one (the disturbance gate's exact
-# |h_c| too, in C where fitsums.mpy loads), each from a collection. Prints one JSON line.
+# |h_c| too, in C where fitsums.mpy loads), each from a collection; Gates.sample itself in C where
+# gatesc.mpy loads (device/native/gatesc.c). Prints one JSON line.
 import gc
 import json
 import math
@@ -50,4 +51,4 @@ first, fit, _ = run(pts, None)
 cal = fit.solve(scale=[0.01, 0.01, 0.01], max_iter=1)
 provisional, fit2, g = run(pts, cal)
 print(json.dumps({"first": first, "provisional": provisional, "taken": fit.n, "taken_provisional": fit2.n,
-                  "magnitude": "python" if g._exact is None else "native"}))
+                  "magnitude": "python" if g._exact is None else "native", "gates": getattr(g, "path", "python")}))
