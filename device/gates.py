@@ -60,6 +60,11 @@ from shared.delag import configured_tau_s, lag_dps, sensor_tau_s
 from shared.fixedpoint import FRACTION_BITS, NATIVE, ExactCorrection
 
 try:
+    from micropython import const
+except ImportError:     # CPython: the value itself
+    def const(x):
+        return x
+try:
     # Gates.sample in C where deploy installed the board's gatesc.mpy (MicroPython; ValueError:
     # a .mpy of another architecture or version); CPython and CircuitPython run the Python
     from gatesc import Sample as _NativeSample
@@ -71,10 +76,31 @@ _RUN = 3             # consecutive outliers that make a disturbance
 _GATE_BITS = 14      # gate/cell arithmetic: |v| < 2**14, so |v|^2 sums stay < 2**30
 _G_SHIFT = 16        # rate gate: d^2 > (r^2 >> 16) * round(angle^2 * 2**16)
 _MAX_STRIDE = 64     # rate gate baseline, samples (0.64 s at 100 samples/s)
-# Gates._st, one array("i") that sample() and device/native/gatesc.c share: the counters and the
-# chain's state, then the constants (an index costs what an attribute does on MicroPython)
-(_SEEN, _REJ_RATE, _REJ_CAP, _REJ_DIST, _FRESH, _FILLED, _RI, _RUN_N, _HOLD, _HIST_N, _HIST_I,
- _SH, _CX, _CY, _CZ, _STRIDE, _G, _CAP, _EDGE, _BACK, _PROV, _STATE) = range(22)
+# Gates._st, one array("i") that sample() and device/native/gatesc.c share (its enum): the
+# counters and the chain's state, then the constants (an index costs what an attribute does on
+# MicroPython; const: inlined there, no global each)
+_SEEN = const(0)
+_REJ_RATE = const(1)
+_REJ_CAP = const(2)
+_REJ_DIST = const(3)
+_FRESH = const(4)
+_FILLED = const(5)
+_RI = const(6)
+_RUN_N = const(7)
+_HOLD = const(8)
+_HIST_N = const(9)
+_HIST_I = const(10)
+_SH = const(11)
+_CX = const(12)
+_CY = const(13)
+_CZ = const(14)
+_STRIDE = const(15)
+_G = const(16)
+_CAP = const(17)
+_EDGE = const(18)
+_BACK = const(19)
+_PROV = const(20)
+_STATE = const(21)
 
 
 def gate_dps(cfg, polled=False):

@@ -13,7 +13,8 @@ state must be the same, after each scenario the counts, hist, fit and batches, a
 scenario's checksum CPython's. The native sample must be the one Gates gets where the module
 loads and must take the common samples itself, the disturbance gate's included (a path silently
 not taken fails): it hands to Python only what the reference alone does (the back-off, sums past
-its words, the tau sums).
+its words, the tau sums), and it allocates nothing for a sample it takes with the disturbance gate
+on (heap_lock).
 """
 
 import json
@@ -37,7 +38,7 @@ BACKOFF = {9, 11}
 
 def _reference(*short):
     lines = output([sys.executable, SCRIPT, REPO, ""] + list(short)).splitlines()
-    assert json.loads(lines[-1]) == {"path": "python", "differed": 0, "slow": [None] * 12}
+    assert json.loads(lines[-1]) == {"path": "python", "differed": 0, "slow": [None] * 12, "heap_locked": None}
     scenarios = [json.loads(ln) for ln in lines[:-1]]
     # every gate at work: rate, cap and disturbance rejections, samples taken and removed
     assert all(sum(s[k] for s in scenarios) > 100 for k in (2, 3, 6))
@@ -74,6 +75,8 @@ def _check(text, reference, native, short=False):
                 assert 0 < n < seen[s], slow
             else:
                 assert n == 0, (s, slow)     # all in C
+        # no allocation a sample: the gates, the exact |h_c|, fit.add, the count, the hist
+        assert got["heap_locked"] == [[], 20, True]
     return got
 
 

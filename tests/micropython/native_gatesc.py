@@ -14,7 +14,8 @@
 # disturbance (its back-off and hold: gates_native.py's turn), and the tau sums attached.
 # Prints one line per scenario (the reference's counters and a checksum of every verdict and
 # state: compared with CPython's), then one JSON line: the gates' path, the samples where the
-# two differed, and per scenario the samples the native sample handed to Python.
+# two differed, per scenario the samples the native sample handed to Python, and what 20 samples
+# through the native gates (the disturbance gate on) raised with the heap locked.
 import gc
 import json
 import sys
@@ -75,11 +76,13 @@ def hand(rng, n, window, smooth=False):
         yield (p[0] + rng.signed(6), p[1] + rng.signed(6), p[2] + rng.signed(6))
 
 
-def edges(gates_mod, g, window, cells):
+def edges(g, window, cells):
     """Each direction `stride + 1` times after a break: the last one is judged at no turn. The
     cells' boundaries in the gates' 14-bit units (shifted up), then the raw extremes."""
     import math
-    sh = g._st[gates_mod._SH]
+    sh = 0                  # the gates' shift (gates.py: its slot's name is a const there)
+    while (window << 23) >> sh >= 1 << 14:
+        sh += 1
     big = (1 << 14) - 1
     dirs = []
     for m in (1, 7, 4096, big):
@@ -100,7 +103,7 @@ def edges(gates_mod, g, window, cells):
     out += [(a, b, c) for a in ext for b in ext for c in ext]
     for d in out:
         yield None
-        for _ in range(g._st[gates_mod._STRIDE] + 1):
+        for _ in range(len(g._ring) // 3 + 1):     # the stride
             yield d
 
 
@@ -112,7 +115,7 @@ def stream(kind, n, rng, window, gates_mod, g, cells, short):
     if kind == "random":
         return ((rng.signed(23) * window, rng.signed(23) * window, rng.signed(23) * window) for _ in range(n))
     if kind == "edges":
-        return edges(gates_mod, g, window, cells)
+        return edges(g, window, cells)
     if kind == "big":        # past a 32-bit port's small ints (2**30) and past 2**31 (not taken)
         return ((rng.signed(30 + rng.bits(2) % 3), rng.signed(31), rng.signed(24)) for _ in range(n))
     if kind in FLOATS:
@@ -141,6 +144,34 @@ def ending(g):
     return checksum(h, [v & MASK for v in g.fit.sums()])
 
 
+def heap_locked(G, config, Calibration, Coverage, EllipsoidFit):
+    """20 samples of a slow turn through native gates judging against a provisional calibration,
+    with the heap locked (after 8 unlocked: cells with 3 samples, where the disturbance gate
+    judges): what it raised, and how many it took (all 20, fewer than a residual batch's 32)."""
+    import micropython
+    import gates_native as GN
+    cfg = config.defaults()
+    g = G.Gates(cfg, EllipsoidFit(), Coverage(cfg["cells"], cfg["cell_cap"]), 2, 10.0, GN.OFFSET)
+    g.use_provisional(Calibration(GN.matrix(), list(GN.OFFSET), GN.F), 20.0)
+    pts = [s for _, s in zip(range(28), GN.samples())]
+    for s in pts[:8]:
+        g.sample(s[0], s[1], s[2])
+    took = 0
+    errors = []
+    sample = g.sample
+    micropython.heap_lock()
+    try:
+        for i in range(8, 28):
+            s = pts[i]
+            if sample(s[0], s[1], s[2]):
+                took += 1
+    except MemoryError:
+        errors.append("MemoryError")
+    finally:
+        micropython.heap_unlock()
+    return errors, took, g._exact is not None
+
+
 def main(root, natmod=None, short=None):
     if short is None:
         short = sys.platform not in ("linux", "darwin", "win32")    # a board: rp2
@@ -167,6 +198,8 @@ def main(root, natmod=None, short=None):
             g.sample = G._NativeSample(g, counting)
         return g
 
+    # first, on a fresh heap
+    locked = heap_locked(G, config, Calibration, Coverage, EllipsoidFit) if native else None
     rng = Rand(19)
     differed = 0
     slows = []
@@ -212,7 +245,7 @@ def main(root, natmod=None, short=None):
         print(json.dumps([s, ref.seen, ref.rej_rate, ref.rej_cap, ref.rej_dist, ref.removed, ref.fit.n,
                           checksum(h, [end[0]] if kind not in FLOATS else [])]))
     path = build(config.defaults(), 2, (0, 0, 0), True).path if native else "python"
-    print(json.dumps({"path": path, "differed": differed, "slow": slows}))
+    print(json.dumps({"path": path, "differed": differed, "slow": slows, "heap_locked": locked}))
 
 
 if __name__ == "__main__" and len(sys.argv) > 2:    # a board without argv imports it and calls main()
