@@ -251,6 +251,7 @@ class Session:
             "ready": self.ready(),
             "dir": g.last_direction(),
             "hold": self.hold,
+            "gates": g.path,        # the gates' sample: "native" (gatesc.mpy) or "python"
         }
 
     def cancel(self):

@@ -18,7 +18,7 @@ ALWAYS = {"v", "ok", "cmd", "state", "fault", "fault_code", "safe_mode", "errors
 HEALTH = {"adc_faults"}
 # a calibration in progress: its progress report
 PROGRESS = {"state", "kind", "gate_dps", "slow_down", "n", "seen", "coverage", "pred_nt", "rej_rate", "rej_dist",
-            "rej_cap", "removed", "clipped", "ready", "dir", "hold"}
+            "rej_cap", "removed", "clipped", "ready", "dir", "hold", "gates"}
 
 
 def test_survey_reply(tmp_path):
@@ -46,6 +46,7 @@ def test_calibrating_and_logging_reply(tmp_path):
         s = ask(w, dev, "status")
         assert set(s) == ALWAYS | HEALTH | {"cal", "log"}
         assert s["state"] == "calibrating" and set(s["cal"]) == PROGRESS and s["cal"]["state"] == "collecting"
+        assert s["cal"]["gates"] == "python"     # CPython loads no native module
         assert set(s["log"]) == {"lines", "error"} and s["log"]["error"] is None
         assert ask(w, dev, "cancel-cal")["ok"]
         s = ask(w, dev, "status")

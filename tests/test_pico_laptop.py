@@ -134,6 +134,9 @@ def test_the_laptop_commands_a_power_cycle_and_the_watchdog_on_the_emulated_pico
         # the RP2040 has the watchdog the firmware can hand back: the main loop runs with it
         assert st["watchdog_ms"] == 5000 and st["watchdog_reset"] is False, st
         ask(port, *("config set %s %s" % kv for kv in SHORT_CAL.items()))
+        # deploy put gatesc.mpy on: a session's gates run in C (status while it collects says so)
+        started, during, _ = ask(port, "start-cal", "status", "cancel-cal")
+        assert started["ok"] and during["cal"]["gates"] == "native", during
         out = ok(fluxcal("calibrate", "--auto", "--port", port, *SLOW, timeout=600))   # the operator follows the LED
         assert "calibration done" in out and "saved, in force" in out, out
         ok(fluxcal("pull-cal", "-o", tmp_path / "device.json", "--port", port, *SLOW))
