@@ -12,13 +12,13 @@ class Board:
 
 
 class Line:
-    """The serial line: each event's members (the numbers printed from integers) to `out`."""
+    """The serial line: each event's members as text (the numbers printed from integers) to `out`."""
 
     def __init__(self, out):
         self.out = out
 
     def event(self, name, fields, members=""):
-        self.out(members)
+        self.out(members or fields)
 
 
 class Die:
