@@ -60,6 +60,11 @@ try:
     from drdy import Handler as _NativeHandler
 except (ImportError, ValueError):
     _NativeHandler = None
+try:
+    # poll in C (the same module: drdy.Drain), calling on_sample without a Python frame
+    from drdy import Drain as _NativeDrain
+except (ImportError, ValueError):
+    _NativeDrain = None
 
 FRAME_BYTES = 9              # 24 status bits + 2 x 24-bit channels [DS §8.5.1.5]
 _STATUS_MASK = const(0xF0)
@@ -80,7 +85,12 @@ DISCARDED = const(7)  # blocks discarded: a bad frame, or a DRDY gap (account_ga
 BLOCKS = const(8)     # blocks completed (wraps at 2**30): the ring's sequence numbers
 MISSED = const(9)     # conversions that passed unseen (polled DRDY): account_gap
 LASTBAD = const(10)   # the last bad header: chip << 8 | its first byte (health.py names it)
-_NSTATE = const(11)
+# The reader's (poll's) own, in the same array: an int there is stored without the attribute
+# store's class look-up (~1 k cycles on an RP2040), and drdy.Drain reaches them as words
+SAMPLES = const(11)   # decimated samples delivered by poll (wraps at 2**30)
+GAPS = const(12)      # discontinuities seen in the block numbers (wraps at 2**30)
+LAST = const(13)      # the block number of the sample delivered last, -1: none yet
+_NSTATE = const(14)
 MAX_WINDOW = const(64)   # window * 2**23 must stay below 2**30 (small int in the ISR)
 # Counters wrap from 2**30 - 1 to 0. On a 32-bit port that is the largest small int, so
 # the handler compares before it increments: (n + 1) & mask would build 2**30 first, a
@@ -91,7 +101,7 @@ _WRAP = const(0x3FFFFFFF)
 class Acquisition:
     """DRDY handler, ring of decimated samples, and the main loop's reader of it."""
 
-    def __init__(self, board, decim=1, window=1, ring_frames=128):
+    def __init__(self, board, decim=1, window=1, ring_frames=128, native=True):
         self.board = board
         self._f0 = bytearray(FRAME_BYTES)
         self._f1 = bytearray(FRAME_BYTES)
@@ -101,9 +111,6 @@ class Acquisition:
         self.ring = array("i", bytes(4 * SLOTS * ring_frames))
         self.state = array("i", bytes(4 * _NSTATE))
         self.acc = array("i", bytes(4 * 4))   # open block: x, y, z, temperature sums
-        self.samples = 0      # decimated samples delivered by poll
-        self.gaps = 0         # discontinuities seen in the block numbers
-        self._last = -1
         # decim, decim - window, 1 where the board counts the frames before the window (the
         # handler sees the window's alone): what the native handler reads
         self._shape = array("i", bytes(4 * 3))
@@ -119,6 +126,10 @@ class Acquisition:
         else:
             self.isr = self._isr
             self.handler = "python"
+        # poll in C where drdy.mpy loads (native=False: the class's poll, the reference, as the
+        # tests compare them): an instance attribute, found before the method
+        if native and _NativeDrain is not None:
+            self.poll = _NativeDrain(self)
 
     def set_decimation(self, decim, window):
         """Boxcar of the last `window` frames of every `decim` (1 <= window <= decim, window <= 64)."""
@@ -141,17 +152,25 @@ class Acquisition:
         st = self.state
         for i in range(_NSTATE):
             st[i] = 0
+        st[LAST] = -1
         a = self.acc
         for i in range(4):
             a[i] = 0
-        self.samples = 0
-        self.gaps = 0
-        self._last = -1
+
+    @property
+    def samples(self):
+        """Decimated samples delivered by poll (wraps at 2**30)."""
+        return self.state[SAMPLES]
+
+    @property
+    def gaps(self):
+        """Discontinuities poll saw in the block numbers (wraps at 2**30)."""
+        return self.state[GAPS]
 
     @property
     def last_block(self):
         """The block number of the sample poll delivered last (wraps at 2**30; -1: none yet)."""
-        return self._last
+        return self.state[LAST]
 
     @property
     def discarded(self):
@@ -286,7 +305,8 @@ class Acquisition:
 
         on_sample(sx, sy, sz, st) gets the integer boxcar sums (units: codes x
         window); on_gap(missing) comes first when block numbers jumped (missing: the blocks
-        between, 1 for a polled DRDY's usual gap, survey.py Output.gap).
+        between, 1 for a polled DRDY's usual gap, survey.py Output.gap). The reference of
+        drdy.Drain (device/native/drdy.c), which runs instead where the module loads.
         """
         st = self.state
         ring = self.ring
@@ -303,12 +323,15 @@ class Acquisition:
             blk = ring[j + 4]
             t += 1
             st[TAIL] = 0 if t == self.ring_frames else t   # slot free: the ISR may reuse it
-            if self._last >= 0 and blk != (self._last + 1 if self._last != _WRAP else 0):
-                self.gaps += 1
+            t = st[LAST]
+            if t >= 0 and blk != (t + 1 if t != _WRAP else 0):
+                j = st[GAPS]
+                st[GAPS] = j + 1 if j != _WRAP else 0
                 if on_gap is not None:
-                    on_gap((blk - self._last - 1) & _WRAP)
-            self._last = blk
+                    on_gap((blk - t - 1) & _WRAP)
+            st[LAST] = blk
             n += 1
-            self.samples += 1
+            j = st[SAMPLES]
+            st[SAMPLES] = j + 1 if j != _WRAP else 0
             on_sample(sx, sy, sz, stc)
         return n

@@ -11,31 +11,27 @@ the data/raw events, the lines of the rotating flash log: flashlog.py).
     sv = Survey(cfg, window, decim_rate_hz)
     rec = sv.sample(sx, sy, sz, st, f)   # None, or a finished block (a tuple)
 
-A sample's way (the DRDY ring's reader calls Output.sample directly): the screen
-(screen.py) drops spikes and clipped samples; a slow sensor's lag is undone
-(shared/delag.py, two samples later: after the screen, which a de-lagged spike spread
-over three samples would pass); a calibration in progress (`session`,
-set by calibration_flow.py) gets the good ones; |h_c| per sample, only when a block
-goes out (stream or log), is averaged over the block with the raw sums. A finished
-block gets the die temperature (one per block: it changes over seconds), is
+A sample's way (the DRDY ring's reader calls Output.sample directly): the screen (screen.py)
+drops spikes and clipped samples; a slow sensor's lag is undone (shared/delag.py, two samples
+later: after the screen, which a de-lagged spike spread over three samples would pass); a
+calibration in progress (`session`, set by calibration_flow.py) gets the good ones; |h_c| per
+sample, only when a block goes out (stream or log), is averaged over the block with the raw
+sums. A finished block gets the die temperature (one per block: it changes over seconds), is
 corrected, and goes out as a `data` or `raw` event and a log line.
 
-A block over 1/survey_hz (0.1 s at the default 10 Hz, the paper's moving
-average width, IV.C) averages |h_c| of every decimated sample -- rotation
-invariant -- and, separately, the raw vector (integer sums). Averaging the
-vectors and taking |.| afterwards would shrink |B| by ~B (w T)^2/24 while the
-operator turns: 769 nT at 1 rev/s over 0.1 s (docs/simulator.md, smearing).
+A block over 1/survey_hz (0.1 s at the default 10 Hz, the paper's moving average width, IV.C)
+averages |h_c| of every decimated sample -- rotation invariant -- and, separately, the raw
+vector (integer sums). Averaging the vectors and taking |.| afterwards would shrink |B| by ~B
+(w T)^2/24 while the operator turns: 769 nT at 1 rev/s over 0.1 s (docs/simulator.md, smearing).
 
-Temperature compensation (docs/temperature.md): the calibration in force, with its
-temperature coefficients applied at the die temperature, is recomputed when the
-die moved by _TEMP_STEP_C (about 40 float operations). The coefficients hold a
-little beyond the temperatures they were measured at: a warning only _RANGE_MARGIN_C
-outside their range; applied linearly up to _EXTRAPOLATE_C outside it and held
-there beyond (a die reading far off, a fault or a hot spot, must not extrapolate
-the drift without end). Without coefficients, a warning when the die is temp_warn_c
-from the calibration's temperature.
+Temperature compensation (docs/temperature.md): the calibration in force, with its temperature
+coefficients applied at the die temperature, is recomputed when the die moved by _TEMP_STEP_C
+(about 40 float operations). The coefficients hold a little beyond the temperatures they were
+measured at: a warning only _RANGE_MARGIN_C outside their range; applied linearly up to
+_EXTRAPOLATE_C outside it and held there beyond (a die reading far off, a fault or a hot spot,
+must not extrapolate the drift without end). Without coefficients, a warning when the die is
+temp_warn_c from the calibration's temperature.
 """
-
 
 import json
 from array import array
@@ -46,12 +42,17 @@ from screen import Screen
 from shared.delag import DELAY, Delag, configured_tau_s, tau_us
 from shared.fixedpoint import FRACTION_BITS, ExactCorrection
 
+# In C where deploy installed the board's .mpy (MicroPython; ValueError: one of another arch or
+# version): a sample's |h_c| and the block's sums (fitsums.survey, device/native/hc.h), and
+# Output.sample itself (drdy.Sample, device/native/drdy.c: the same calls, no Python frame)
 try:
-    # a sample's |h_c| and the block's sums in C (device/native/hc.h) where deploy installed the
-    # board's fitsums.mpy (MicroPython; ValueError: a .mpy of another arch or version)
     from fitsums import survey as _native_survey
 except (ImportError, ValueError):
     _native_survey = None
+try:
+    from drdy import Sample as _NativeSample
+except (ImportError, ValueError):
+    _NativeSample = None
 # fitsums.survey's words (an array("H"), hc.h): five 64-bit sums (x, y, z, t, |h_c|) of four
 # limbs each, the samples the block still takes, 1 if |h_c| is summed (else 0), its numbers
 _LEFT, _HAS_F, _NUMBERS_AT = 20, 21, 22
@@ -62,10 +63,8 @@ _TEMP_STEP_C = 0.05
 # calibration's mean die reading): warn only this far outside their range
 _RANGE_MARGIN_C = 1.0
 _EXTRAPOLATE_C = 10.0     # and are applied at most this far outside it (held there beyond)
-
-
-# a block's texts, each one format (protocol.py's; a format costs ~6 k cycles an item on an
-# RP2040, a string made and dropped more in the collections it brings); the log line's
+# a block's texts, each one format (protocol.py's; on an RP2040 a string made costs ~15 k cycles,
+# MicroPython looks it up among the interned ones, and ~2 k more an item); the log line's
 _LOG = "%d,%s%d.%03d,%s%d.%03d,%s%d.%03d,%d.%03d,%.2f\n"
 
 
@@ -114,12 +113,11 @@ class Survey:
             for i in range(5):      # each a 64-bit two's complement, low limb first
                 j = 4 * i
                 hi = w[j + 1]
-                # x, y, z, t sums are small ints (|v| < 2**30) and |h_c|'s under 2**46: built
-                # without the big integers of the general form (each a heap allocation on a
-                # 32-bit port: the five took ~99 k cycles a block on an RP2040, ~55 k so)
+                # small ints (x, y, z, t) and |h_c|'s sum under 2**46 without the general form's big
+                # ints (a heap allocation each on a 32-bit port: ~99 k cycles a block on an RP2040)
                 if w[j + 3] == 0 and w[j + 2] == 0 and hi < 0x4000:
                     v = (hi << 16) | w[j]
-                elif w[j + 3] == 0xFFFF and w[j + 2] == 0xFFFF and hi >= 0xC000:
+                elif w[j + 3] == w[j + 2] == 0xFFFF and hi >= 0xC000:
                     v = ((hi - 0x10000) << 16) | w[j]
                 elif w[j + 3] == 0 and w[j + 2] < 0x4000:
                     v = (((w[j + 2] << 16) | hi) << 16) | w[j]
@@ -133,7 +131,7 @@ class Survey:
 
 
 class Output:
-    def __init__(self, board, proto):
+    def __init__(self, board, proto, native=True):
         self.board = board
         self.proto = proto
         self.adc = None            # the ADS1292Pair: the die temperature's conversion (app.py)
@@ -158,6 +156,10 @@ class Output:
         self.cal_temp_warn = False
         self._comp_temp = None
         self._want_f = False
+        # sample in C (native=False: the class's, the reference): an instance attribute, found
+        # before the method (app.py binds it once; acq.poll's C calls it without a frame)
+        if native and _NativeSample is not None:
+            self.sample = _NativeSample(self, _native_survey)
 
     def configure(self, cfg, sample_hz):
         c = self.cfg = cfg
@@ -275,9 +277,9 @@ class Output:
             self.session.break_chain()
 
     def sample(self, rx, ry, rz, rt):
-        # a frame of at most 11 slots (arguments reused as locals, the value stack): a larger one
-        # is a heap allocation a call (py/objfun.c VM_MAX_STATE_ON_STACK), ~35 k cycles on an
-        # RP2040 with the heap as full as after boot
+        # the reference of drdy.Sample, which runs instead where it loads. A frame of at most 11
+        # slots (arguments reused as locals, the value stack): a larger one is a heap allocation a
+        # call (py/objfun.c VM_MAX_STATE_ON_STACK), ~35 k cycles on an RP2040 with a full heap
         if not self.screen.push(rx, ry, rz, rt):
             return self._dropped()
         ry = self.screen
@@ -289,8 +291,7 @@ class Output:
         rz = self.session
         if rz is not None:
             rz.sample(ry.x, ry.y, ry.z)
-        # |h_c| per decimated sample in 1/256 milli-nT, summed with the block's sums in C: no
-        # int object made (a big int on a 32-bit port, and the collections it brings)
+        # |h_c| in 1/256 milli-nT summed with the block's sums in C: no int made (a big int on the Pico)
         rx = self._words
         rz = None if rx is None else _native_survey(rx, ry.x, ry.y, ry.z, ry.t)
         if rz is None:         # no fitsums.survey, the float |h_c|, or past its words: in Python

@@ -192,7 +192,7 @@ def test_account_gap_keeps_the_boxcar_on_consecutive_conversions(decim, window):
     st = acq.state
     assert st[acquisition.FRAMES] == board.conv and st[acquisition.MISSED] > 0
     got = []
-    acq.poll(lambda x, y, z, t: got.append((x, acq._last)), limit=acq.available())   # the sample, its block
+    acq.poll(lambda x, y, z, t: got.append((x, acq.last_block)), limit=acq.available())   # the sample, its block
     seen = []
     for x, blk in got:
         last = (blk + 1) * decim - 1

@@ -3,16 +3,13 @@ two's complements of four 16-bit limbs, least significant first) without big int
 they fit a small int (x, y, z, t) or lie under 2**46 (|h_c|'s sum): each way must give the
 integer the general formula gives, at and across every edge between the ways."""
 
-import os
-import sys
 from array import array
 
 import pytest
 
-DEVICE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "device")
-if DEVICE not in sys.path:
-    sys.path.insert(0, DEVICE)       # the firmware's flat modules, as on a board
-from survey import _LEFT, Survey  # noqa: E402
+from desktop.firmware.files import import_device
+
+survey = import_device("survey")
 
 
 def _limbs(v):
@@ -28,13 +25,13 @@ EDGES = [0, 1, -1, (1 << 30) - 1, 1 << 30, -(1 << 30), -(1 << 30) - 1, (1 << 46)
 @pytest.mark.parametrize("python_sums", [0, 5, -(1 << 40)])
 def test_finish_reads_every_64_bit_sum_as_the_formula_does(python_sums):
     cfg = {"survey_hz": 10}
-    sv = Survey(cfg, 2, 100, native=False)
+    sv = survey.Survey(cfg, 2, 100, native=False)
     for k in range(0, len(EDGES), 5):
         values = (EDGES[k:k + 5] + EDGES[:5])[:5]
         sv.words = array("H", [0] * 86)
         for i, v in enumerate(values):
             sv.words[4 * i:4 * i + 4] = array("H", _limbs(v))
-        sv.words[_LEFT] = 0
+        sv.words[survey._LEFT] = 0
         sv._sx = sv._sy = sv._sz = sv._st = sv._f = python_sums
         got = sv.finish()
         assert got == tuple(v + python_sums for v in values) + (sv.per_block,), values

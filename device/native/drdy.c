@@ -21,6 +21,16 @@
 // bound method of two arguments passes them on the C stack (py/objboundmeth.c uses the heap
 // only past four), SPI.readinto fills the buffer in place. Nothing here allocates either (the
 // buffers' addresses are taken once, in make_new): it runs as a hard IRQ, with the heap locked.
+// The ring's other side, in the main loop (the rest of the file):
+//     acq.poll = drdy.Drain(acq)                  # n = acq.poll(on_sample, limit, on_gap)
+//     out.sample = drdy.Sample(out, fitsums.survey or None)   # out.sample(sx, sy, sz, st)
+//
+// Drain is Acquisition.poll and Sample device/survey.py's Output.sample, word for word: the same
+// state read and written, the same calls in the same order, each as the VM makes it (an instance
+// attribute before the class's method, a method called without a bound-method object), so they
+// do what the objects they call do (the screen's and de-lag's pushes, native or not; fitsums.survey;
+// the Python fall-backs). They spare the VM's frames and bytecodes (~2 k cycles a Python call on
+// an RP2040): a survey sample makes no Python frame where the screen, de-lag and survey are in C.
 
 #include "py/dynruntime.h"
 #include "py/objlist.h"
@@ -36,7 +46,11 @@
 #define DISCARDED (7)
 #define BLOCKS (8)
 #define LASTBAD (10)
-#define NSTATE (11)
+#define NSTATE (11)             // the handler's; the reader's (poll's) after them:
+#define SAMPLES (11)
+#define GAPS (12)
+#define LAST (13)
+#define NREADER (14)
 // shape array indices
 #define DECIM (0)
 #define FIRST (1)               // decim - window: the first frame of a block that is read
@@ -206,13 +220,180 @@ static mp_obj_t handler_call(mp_obj_t self_in, size_t n_args, size_t n_kw, const
     return mp_const_none;
 }
 
+// ****** main loop: the ring's reader (Acquisition.poll) and the survey output's sample ******
+
+// obj.name(*args) as the VM calls it: an instance attribute first, else the class's method called
+// with obj, with no bound-method object made (n <= 4)
+static mp_obj_t call_attr(mp_obj_t obj, qstr name, size_t n, const mp_obj_t *args) {
+    mp_obj_t call[6];
+    mp_load_method(obj, name, call);        // call[0] the function, call[1] obj or MP_OBJ_NULL
+    if (call[1] == MP_OBJ_NULL) {
+        return mp_call_function_n_kw(call[0], n, 0, args);
+    }
+    // one by one: a loop becomes a memcpy, which is not linked
+    if (n > 0) {
+        call[2] = args[0];
+    }
+    if (n > 1) {
+        call[3] = args[1];
+    }
+    if (n > 2) {
+        call[4] = args[2];
+    }
+    if (n > 3) {
+        call[5] = args[3];
+    }
+    return mp_call_function_n_kw(call[0], n + 1, 0, call + 1);
+}
+
+typedef struct {
+    mp_obj_base_t base;
+    int32_t *state;
+    int32_t *ring;
+    int32_t ring_frames;
+    mp_obj_t arrays[2];         // state, ring: held, so their items stay alive
+} drain_t;
+
+mp_obj_full_type_t drain_type;
+
+// Drain(acq): its state and ring (never replaced)
+static mp_obj_t drain_make_new(const mp_obj_type_t *type, size_t n_args, size_t n_kw, const mp_obj_t *args) {
+    mp_arg_check_num(n_args, n_kw, 1, 1, false);
+    drain_t *self = mp_obj_malloc(drain_t, type);
+    size_t ring_ints;
+    self->arrays[0] = mp_load_attr(args[0], MP_QSTR_state);
+    self->arrays[1] = mp_load_attr(args[0], MP_QSTR_ring);
+    self->state = ints_of(self->arrays[0], NREADER, NULL);
+    self->ring = ints_of(self->arrays[1], SLOTS, &ring_ints);
+    self->ring_frames = mp_obj_get_int(mp_load_attr(args[0], MP_QSTR_ring_frames));
+    if (self->ring_frames < 1 || (size_t)self->ring_frames * SLOTS > ring_ints) {
+        mp_raise_ValueError(MP_ERROR_TEXT("drdy: ring_frames outside the ring"));
+    }
+    return MP_OBJ_FROM_PTR(self);
+}
+
+// drain(on_sample, limit=16, on_gap=None): Acquisition.poll
+static mp_obj_t drain_call(mp_obj_t self_in, size_t n_args, size_t n_kw, const mp_obj_t *args) {
+    if (n_args < 1 || n_args > 3 || n_kw) {
+        mp_raise_TypeError(MP_ERROR_TEXT("drdy: poll takes on_sample, limit, on_gap"));
+    }
+    drain_t *self = MP_OBJ_TO_PTR(self_in);
+    mp_obj_t on_sample = args[0];
+    mp_int_t limit = n_args > 1 ? mp_obj_get_int(args[1]) : 16;
+    mp_obj_t on_gap = n_args > 2 ? args[2] : mp_const_none;
+    int32_t *st = self->state;
+    mp_int_t n = 0;
+    while (n < limit) {
+        int32_t t = st[TAIL];
+        if (t == st[HEAD]) {
+            break;
+        }
+        if (t < 0 || t >= self->ring_frames) {
+            mp_raise_ValueError(MP_ERROR_TEXT("drdy: TAIL outside the ring"));    // poll: IndexError
+        }
+        const int32_t *r = self->ring + t * SLOTS;
+        mp_obj_t sample[4];
+        sample[0] = mp_obj_new_int(r[0]);      // small ints (|sum| < 2^29), as the array's items
+        sample[1] = mp_obj_new_int(r[1]);
+        sample[2] = mp_obj_new_int(r[2]);
+        sample[3] = mp_obj_new_int(r[3]);
+        int32_t blk = r[4];
+        t += 1;
+        st[TAIL] = t == self->ring_frames ? 0 : t;     // slot free: the ISR may reuse it
+        int32_t last = st[LAST];
+        if (last >= 0 && blk != (last != WRAP ? last + 1 : 0)) {
+            st[GAPS] = next_count(st[GAPS]);
+            if (on_gap != mp_const_none) {
+                mp_obj_t missing = mp_obj_new_int((blk - last - 1) & WRAP);
+                mp_call_function_n_kw(on_gap, 1, 0, &missing);
+            }
+        }
+        st[LAST] = blk;
+        n++;
+        st[SAMPLES] = next_count(st[SAMPLES]);
+        mp_call_function_n_kw(on_sample, 4, 0, sample);
+    }
+    return mp_obj_new_int(n);
+}
+
+typedef struct {
+    mp_obj_base_t base;
+    mp_obj_t out;
+    mp_obj_t survey;            // fitsums.survey, or None
+} sample_t;
+
+mp_obj_full_type_t sample_type;
+
+// Sample(out, survey)
+static mp_obj_t sample_make_new(const mp_obj_type_t *type, size_t n_args, size_t n_kw, const mp_obj_t *args) {
+    mp_arg_check_num(n_args, n_kw, 2, 2, false);
+    sample_t *self = mp_obj_malloc(sample_t, type);
+    self->out = args[0];
+    self->survey = args[1];
+    return MP_OBJ_FROM_PTR(self);
+}
+
+// o.x, o.y, o.z, o.t into v[0..3]
+static void held(mp_obj_t o, mp_obj_t *v) {
+    v[0] = mp_load_attr(o, MP_QSTR_x);
+    v[1] = mp_load_attr(o, MP_QSTR_y);
+    v[2] = mp_load_attr(o, MP_QSTR_z);
+    v[3] = mp_load_attr(o, MP_QSTR_t);
+}
+
+// sample(rx, ry, rz, rt): Output.sample
+static mp_obj_t sample_call(mp_obj_t self_in, size_t n_args, size_t n_kw, const mp_obj_t *args) {
+    if (n_args != 4 || n_kw) {
+        mp_raise_TypeError(MP_ERROR_TEXT("drdy: sample takes rx, ry, rz, rt"));
+    }
+    sample_t *self = MP_OBJ_TO_PTR(self_in);
+    mp_obj_t out = self->out, v[5];
+    mp_obj_t src = mp_load_attr(out, MP_QSTR_screen);
+    if (!mp_obj_is_true(call_attr(src, MP_QSTR_push, 4, args))) {
+        return call_attr(out, MP_QSTR__dropped, 0, NULL);
+    }
+    if (mp_obj_is_true(mp_load_attr(out, MP_QSTR__delag_on))) {
+        mp_obj_t dl = mp_load_attr(out, MP_QSTR_delag);
+        held(src, v);
+        if (!mp_obj_is_true(call_attr(dl, MP_QSTR_push, 4, v))) {
+            return mp_const_none;
+        }
+        src = dl;
+    }
+    mp_obj_t session = mp_load_attr(out, MP_QSTR_session);
+    if (session != mp_const_none) {
+        held(src, v);
+        call_attr(session, MP_QSTR_sample, 3, v);
+    }
+    mp_obj_t words = mp_load_attr(out, MP_QSTR__words), done = mp_const_none;
+    held(src, v + 1);
+    if (words != mp_const_none && self->survey != mp_const_none) {
+        v[0] = words;
+        done = mp_call_function_n_kw(self->survey, 5, 0, v);
+    }
+    if (done == mp_const_none) {    // no fitsums.survey, the float |h_c|, or past its words: in Python
+        return call_attr(out, MP_QSTR__survey, 4, v + 1);
+    }
+    if (!mp_obj_is_true(done)) {
+        return mp_const_none;
+    }
+    mp_obj_t blk = call_attr(mp_load_attr(out, MP_QSTR_survey), MP_QSTR_finish, 0, NULL);
+    return call_attr(out, MP_QSTR__output, 1, &blk);
+}
+
+static void make_type(mp_obj_full_type_t *type, qstr name, void *make_new, void *call) {
+    type->base.type = (void *)&mp_type_type;
+    type->flags = MP_TYPE_FLAG_NONE;
+    type->name = name;
+    MP_OBJ_TYPE_SET_SLOT(type, make_new, make_new, 0);
+    MP_OBJ_TYPE_SET_SLOT(type, call, call, 1);
+    mp_store_global(name, MP_OBJ_FROM_PTR(type));
+}
+
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
     MP_DYNRUNTIME_INIT_ENTRY
-    handler_type.base.type = (void *)&mp_type_type;
-    handler_type.flags = MP_TYPE_FLAG_NONE;
-    handler_type.name = MP_QSTR_Handler;
-    MP_OBJ_TYPE_SET_SLOT(&handler_type, make_new, handler_make_new, 0);
-    MP_OBJ_TYPE_SET_SLOT(&handler_type, call, handler_call, 1);
-    mp_store_global(MP_QSTR_Handler, MP_OBJ_FROM_PTR(&handler_type));
+    make_type(&handler_type, MP_QSTR_Handler, handler_make_new, handler_call);
+    make_type(&drain_type, MP_QSTR_Drain, drain_make_new, drain_call);
+    make_type(&sample_type, MP_QSTR_Sample, sample_make_new, sample_call);
     MP_DYNRUNTIME_INIT_EXIT
 }

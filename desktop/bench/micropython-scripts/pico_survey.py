@@ -29,7 +29,8 @@ def main():
     o.adc = Die(25.0)
     o.configure(cfg, cfg["survey_hz"] * job["per_block"])
     o.screen = Passes()
-    o.use(Calibration.from_dict(job["cal"]))
+    cal = job["cal"]
+    o.use(Calibration.from_dict(cal))
     o.set_stream("corrected")
     sums = job["sums"]
     screen_sums = job["screen_sums"]
@@ -66,6 +67,7 @@ def main():
     block = time.ticks_diff(time.ticks_us(), t0) / 100
     path = "integers" if hasattr(o, "exact_w") else "floats"
     blk = o = None
+    ring = _from_ring(cfg, cal, sums)
     clean, _, _, screen_path = _screen(cfg, sums)
     out = {"screen_clean": clean, "screen_path": screen_path}
     if screen_path == "native":     # the pure-Python push beside it (CircuitPython's)
@@ -73,9 +75,44 @@ def main():
         out["py_screen"], out["py_screen_full"] = _screen(cfg, screen_sums, False)[:2]
     sums = None
     out["screen"], out["screen_full"], out["screen_spikes"] = _screen(cfg, screen_sums)[:3]
-    out.update({"per_sample": per_sample, "per_sample_full": per_sample_full, "magnitude": magnitude, "block": block, "path": path,
+    out.update({"ring": ring, "per_sample": per_sample, "per_sample_full": per_sample_full, "magnitude": magnitude, "block": block, "path": path,
                 "magnitude_path": getattr(corr, "path", "python")})
     print(json.dumps(out))
+
+
+def _from_ring(cfg, record, sums):
+    """us per decimated sample from the DRDY ring as the firmware's main loop takes them:
+    Acquisition.poll two at a time (a pass's usual count at 100 samples/s) into Output.sample,
+    with the firmware's screen (screen.py, screenc.mpy where it loads) and the de-lag by the
+    configured response (shared/delag.py, delagc.mpy), block outputs included. The ring is
+    filled while the clock is stopped, 100 samples at a time."""
+    from acquisition import SLOTS, Acquisition
+    from shared.delag import configured_tau_s
+    o = Output(Board(), Line(len))
+    o.adc = Die(25.0)
+    o.configure(cfg, cfg["rate"] / cfg["decim"])
+    cal = Calibration.from_dict(record)
+    cal.response = {"tau_s": [configured_tau_s(cfg)] * 3}    # as a calibration the board de-lagged
+    o.use(cal)
+    o.set_stream("corrected")
+    acq = o.acq = Acquisition(Board(), cfg["decim"], cfg["window"])
+    ring, st = acq.ring, acq.state
+    cb, gap = o.sample, o.gap
+    blk = 0
+    us = 0
+    for k in range(0, len(sums), 100):
+        for s in sums[k:k + 100]:
+            j = st[0] * SLOTS
+            ring[j], ring[j + 1], ring[j + 2], ring[j + 3], ring[j + 4] = s[0], s[1], s[2], 0, blk
+            blk += 1
+            st[0] = (st[0] + 1) % acq.ring_frames
+        gc.collect()
+        t0 = time.ticks_us()
+        while acq.poll(cb, 2, gap):
+            pass
+        us += time.ticks_diff(time.ticks_us(), t0)
+    assert acq.samples == len(sums) and acq.gaps == 0
+    return us / len(sums)
 
 
 class _Nothing:
