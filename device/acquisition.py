@@ -87,9 +87,9 @@ MISSED = const(9)     # conversions that passed unseen (polled DRDY): account_ga
 LASTBAD = const(10)   # the last bad header: chip << 8 | its first byte (health.py names it)
 # The reader's (poll's) own, in the same array: an int there is stored without the attribute
 # store's class look-up (~1 k cycles on an RP2040), and drdy.Drain reaches them as words
-SAMPLES = const(11)   # decimated samples delivered by poll (wraps at 2**30)
-GAPS = const(12)      # discontinuities seen in the block numbers (wraps at 2**30)
-LAST = const(13)      # the block number of the sample delivered last, -1: none yet
+_SAMPLES = const(11)   # decimated samples delivered by poll (wraps at 2**30)
+_GAPS = const(12)      # discontinuities seen in the block numbers (wraps at 2**30)
+_LAST = const(13)      # the block number of the sample delivered last, -1: none yet
 _NSTATE = const(14)
 MAX_WINDOW = const(64)   # window * 2**23 must stay below 2**30 (small int in the ISR)
 # Counters wrap from 2**30 - 1 to 0. On a 32-bit port that is the largest small int, so
@@ -152,7 +152,7 @@ class Acquisition:
         st = self.state
         for i in range(_NSTATE):
             st[i] = 0
-        st[LAST] = -1
+        st[_LAST] = -1
         a = self.acc
         for i in range(4):
             a[i] = 0
@@ -160,17 +160,17 @@ class Acquisition:
     @property
     def samples(self):
         """Decimated samples delivered by poll (wraps at 2**30)."""
-        return self.state[SAMPLES]
+        return self.state[_SAMPLES]
 
     @property
     def gaps(self):
         """Discontinuities poll saw in the block numbers (wraps at 2**30)."""
-        return self.state[GAPS]
+        return self.state[_GAPS]
 
     @property
     def last_block(self):
         """The block number of the sample poll delivered last (wraps at 2**30; -1: none yet)."""
-        return self.state[LAST]
+        return self.state[_LAST]
 
     @property
     def discarded(self):
@@ -323,15 +323,15 @@ class Acquisition:
             blk = ring[j + 4]
             t += 1
             st[TAIL] = 0 if t == self.ring_frames else t   # slot free: the ISR may reuse it
-            t = st[LAST]
+            t = st[_LAST]
             if t >= 0 and blk != (t + 1 if t != _WRAP else 0):
-                j = st[GAPS]
-                st[GAPS] = j + 1 if j != _WRAP else 0
+                j = st[_GAPS]
+                st[_GAPS] = j + 1 if j != _WRAP else 0
                 if on_gap is not None:
                     on_gap((blk - t - 1) & _WRAP)
-            st[LAST] = blk
+            st[_LAST] = blk
             n += 1
-            j = st[SAMPLES]
-            st[SAMPLES] = j + 1 if j != _WRAP else 0
+            j = st[_SAMPLES]
+            st[_SAMPLES] = j + 1 if j != _WRAP else 0
             on_sample(sx, sy, sz, stc)
         return n

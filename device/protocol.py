@@ -34,16 +34,13 @@ def json_number(x, nd=3):
 
 
 # the survey's per-block events (device/survey.py), each one format, written out (not joined
-# at import: the heap): the raw and data events' heads with the temperature's "%.2f" ([0]) or,
-# when it is not a number, "%s" of "null" ([1]), their mean codes in hundredths; the data
-# event's h_c and |h_c| in thousandths, in the same format (one string a block, not two: each
-# string made costs ~15 k cycles on an RP2040, MicroPython looks it up among the interned ones);
-# each number three parts of parts3()
-RAW_HEAD = ('"t": %d, "n": %d, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "temp": %.2f',
-            '"t": %d, "n": %d, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "temp": %s')
+# at import: the heap): the raw event's head and the data event, the temperature's "%.2f" (as
+# "%s" of "null" when it is not a number: survey.py makes that format then, a fault's rare
+# case), the mean codes in hundredths, the data event's h_c and |h_c| in thousandths in the same
+# format (one string a block, not two: each string made costs ~15 k cycles on an RP2040,
+# MicroPython looks it up among the interned ones); each number three parts of parts3()
+RAW_HEAD = '"t": %d, "n": %d, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "temp": %.2f'
 DATA = ('"t": %d, "temp": %.2f, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "cal": %s, "warn": %s, '
-        '"b": [%s%d.%03d, %s%d.%03d, %s%d.%03d], "f": %d.%03d',
-        '"t": %d, "temp": %s, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "cal": %s, "warn": %s, '
         '"b": [%s%d.%03d, %s%d.%03d, %s%d.%03d], "f": %d.%03d')
 
 

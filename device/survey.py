@@ -335,7 +335,7 @@ class Output:
             return   # nothing goes out: no stream, no log
         t = self.board.ticks_ms()
         stream = self.stream
-        nan = 0 if temp == temp else 1     # the heads' formats: the temperature's "%.2f", or null
+        nan = temp != temp       # not a number (a fault): the formats' "%.2f" as "%s" of null
         tv = "null" if nan else temp
         if stream != "off":
             # the block's mean codes in hundredths from the integer sums: no float to box and print
@@ -343,7 +343,7 @@ class Output:
         if stream == "raw":
             # n: its last sample's block number (the screen holds one back, the de-lag DELAY more)
             seq = -1 if self.acq is None else (self.acq.last_block - 1 - (DELAY if self._delag_on else 0)) & 0x3FFFFFFF
-            self.proto.event("raw", RAW_HEAD[nan] % ((t, seq) + c + (tv,)))
+            self.proto.event("raw", (RAW_HEAD.replace("%.2f", "%s") if nan else RAW_HEAD) % ((t, seq) + c + (tv,)))
             if self.recorder is None and (self.log is None or self.session is not None):
                 return
         # h_c and |h_c| in milli-nT, integers: printed to the last digit a narrow float cannot hold
@@ -361,7 +361,7 @@ class Output:
             fp = parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000)
         if stream == "corrected":
             # the event's members as JSON text (protocol.Protocol.event), one format
-            self.proto.event("data", DATA[nan] % ((t, tv) + c + (
+            self.proto.event("data", (DATA.replace("%.2f", "%s") if nan else DATA) % ((t, tv) + c + (
                 "false" if cal is None else "true", "null" if msg is None else json.dumps(msg)) + fp))
         if self.recorder is not None:
             self.recorder.block(t, f)

@@ -1,8 +1,9 @@
-"""device/survey.py Survey.finish reads the C's block sums (fitsums.survey's words: five 64-bit
+"""device/survey.py's block: Survey.finish reads the C's block sums (fitsums.survey's words: five 64-bit
 two's complements of four 16-bit limbs, least significant first) without big integers where
 they fit a small int (x, y, z, t) or lie under 2**46 (|h_c|'s sum): each way must give the
 integer the general formula gives, at and across every edge between the ways."""
 
+import os
 from array import array
 
 import pytest
@@ -10,6 +11,7 @@ import pytest
 from desktop.firmware.files import import_device
 
 survey = import_device("survey")
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _limbs(v):
@@ -35,3 +37,33 @@ def test_finish_reads_every_64_bit_sum_as_the_formula_does(python_sums):
         sv._sx = sv._sy = sv._sz = sv._st = sv._f = python_sums
         got = sv.finish()
         assert got == tuple(v + python_sums for v in values) + (sv.per_block,), values
+
+
+@pytest.mark.parametrize("stream", ["corrected", "raw"])
+def test_a_die_temperature_not_a_number_goes_out_as_null(stream):
+    """The block's format with its temperature's "%.2f" as "%s" of null (survey.py makes it only
+    then): the event is JSON, its other numbers as in a block with a temperature."""
+    import json
+    import sys
+    sys.path.insert(0, os.path.join(REPO, "desktop", "bench", "micropython-scripts"))
+    from survey_stand_ins import Board, Die, Line
+    from shared.calibration import Calibration
+    config = import_device("config")
+    texts = {}
+    for temp in (25.0, float("nan")):
+        cfg = config.defaults()
+        cfg["log"] = False
+        got = texts[temp == temp] = []
+        o = survey.Output(Board(), Line(got.append), native=False)
+        o.adc = Die(temp)
+        o.configure(cfg, 100)
+        o.use(Calibration([[0.0144, 0, 0], [0, 0.0145, 0], [0, 0, 0.0143]], [100.0, -200.0, 50.0], 48000.0))
+        o.set_stream(stream)
+        for i in range(30):
+            o.sample(2000000 + 1000 * i, -1500000, 2500000 - 700 * i, 9000)
+    assert len(texts[True]) == len(texts[False]) >= 2
+    for good, bad in zip(texts[True], texts[False]):
+        g, b = json.loads("{" + good + "}"), json.loads("{" + bad + "}")
+        assert g["temp"] == 25.0 and b["temp"] is None
+        g.pop("temp"), b.pop("temp")
+        assert g == b
