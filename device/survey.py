@@ -79,6 +79,7 @@ class Survey:
         self.blocks = 0
         # blocks under 2**16 samples: the C's 64-bit sums cannot overflow, LEFT is a limb (hc.h)
         self.words = array("H", [0] * (_NUMBERS_AT + 64)) if native and _native_survey and self.per_block < 1 << 16 else None
+        self._zeros = array("H", bytes(2 * _LEFT))     # restart's: one slice store, not 20 (~10 k cycles)
         self.restart()
 
     def restart(self):
@@ -87,8 +88,7 @@ class Survey:
         self._sx = self._sy = self._sz = self._st = self._f = 0
         w = self.words
         if w is not None:
-            for i in range(_LEFT):
-                w[i] = 0
+            w[:_LEFT] = self._zeros
             w[_LEFT] = self.per_block
 
     def sample(self, sx, sy, sz, st, f):
@@ -115,7 +115,7 @@ class Survey:
                 hi = w[j + 1]
                 # small ints (x, y, z, t) and |h_c|'s sum under 2**46 without the general form's big
                 # ints (a heap allocation each on a 32-bit port: ~99 k cycles a block on an RP2040)
-                if w[j + 3] == 0 and w[j + 2] == 0 and hi < 0x4000:
+                if w[j + 3] == w[j + 2] == 0 and hi < 0x4000:
                     v = (hi << 16) | w[j]
                 elif w[j + 3] == w[j + 2] == 0xFFFF and hi >= 0xC000:
                     v = ((hi - 0x10000) << 16) | w[j]
@@ -277,9 +277,8 @@ class Output:
             self.session.break_chain()
 
     def sample(self, rx, ry, rz, rt):
-        # the reference of drdy.Sample, which runs instead where it loads. A frame of at most 11
-        # slots (arguments reused as locals, the value stack): a larger one is a heap allocation a
-        # call (py/objfun.c VM_MAX_STATE_ON_STACK), ~35 k cycles on an RP2040 with a full heap
+        # the reference of drdy.Sample, which runs instead where it loads. A frame of at most 11 slots
+        # (arguments as locals, the value stack): more is a heap allocation a call (py/objfun.c)
         if not self.screen.push(rx, ry, rz, rt):
             return self._dropped()
         ry = self.screen
@@ -328,7 +327,8 @@ class Output:
         self.temp_c = temp
         if self.session is not None:
             self.session.add_temperature(temp)   # one per block: the die changes over seconds
-        self._compensate(temp)
+        if self.cal is not None and self.cal.tempco is not None:
+            self._compensate(temp)      # else nothing to do: no call (~7 k cycles a block)
         cal = self.cal_now
         msg = self._temperature_warning(temp)
         if not self._want_f:
