@@ -39,14 +39,14 @@ _UNLOAD = sys.implementation.name != "cpython"
 
 
 def sums_path():
-    """Which sums the fit runs, "native" (fitsums.mpy) or "python", as shared/fit.py decides, without
-    importing the fit: a board's `status` at boot, before any session brought it."""
-    try:
-        import fitsums  # noqa: F401 - shared/fit.py's test: it imports where arch and .mpy version fit
-    except (ImportError, ValueError):
-        return "python"
-    del sys.modules["fitsums"]
-    return "native"
+    """Which sums the fit runs, "native" (fitsums.mpy) or "python", as shared/fit.py decides: `status` at boot. The
+    native modules a session imports stay resident from here: rp2 keeps every load of one (py/persistentcode.c)."""
+    for name in ("gatesc", "fitsums"):      # fitsums last: shared/fit.py's test, its import says the path
+        try:
+            path = __import__(name) and "native"
+        except (ImportError, ValueError):   # ValueError: a .mpy of another arch or version
+            path = "python"
+    return path
 
 
 class CalibrationFlow:
