@@ -130,10 +130,11 @@ class Board(hal.Board):
         self._drdy = P(cfg["pin_drdy"], P.IN, P.PULL_UP)
         self._button = P(cfg["pin_button"], P.IN, P.PULL_UP)  # active low to GND
         self._led = P(cfg["pin_led"], P.OUT, value=0)
-        self._poll = None
+        self._ipoll = None         # bound once: serial_read runs every pass
         if select is not None:
-            self._poll = select.poll()
-            self._poll.register(sys.stdin, select.POLLIN)
+            poll = select.poll()
+            poll.register(sys.stdin, select.POLLIN)
+            self._ipoll = poll.ipoll
         self._rbuf = bytearray(SERIAL_CHUNK)
         self._one = bytearray(1)
         self._wdt = None
@@ -293,9 +294,9 @@ class Board(hal.Board):
         stdin tells only whether a byte is waiting, and a read of more than is there blocks,
         so one byte at a time, while poll says one is waiting: ipoll and readinto allocate
         nothing per byte (poll() and read(1) allocated two objects each)."""
-        if self._poll is None:
+        ipoll = self._ipoll
+        if ipoll is None:
             return None
-        ipoll = self._poll.ipoll
         for _ready in ipoll(0):
             break
         else:

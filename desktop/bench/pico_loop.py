@@ -7,12 +7,11 @@ What: micropython-scripts/pico_loop.py builds device/app.py's App on the rp2 HAL
 port's firmware in the RP2040 emulator (the firmware's modules as .mpy from the Pico's own
 mpy-cross, the native modules for armv6m as deploy installs them; no chips on the pins, the
 supervisor then put in a healthy boot's state, so no samples flow) and runs its main-loop pass
-250 times (5 emulated s) after boot, then 100 more with a calibration session started: each
+250 times (5 emulated s) after boot, then 250 more with a calibration session started: each
 piece of step() named on the runner's profiling port (desktop/devicesim/pico/parts.mjs), which
 counts the cycles the core runs in thread mode in it (the interrupts apart: their own rows), then
-App.run() itself for 5 emulated s, 2 with the session (both within its first 5 s: without
-samples it solves nothing and is due on every pass from then on; its thread-mode cycles, the
-wake-ups' C code in its sleep_ms(_HOUSE_MS) included; the passes counted from the run's emulated time). The collector
+App.run() itself for 5 emulated s (its thread-mode cycles, the wake-ups' C code in its
+sleep_ms(_HOUSE_MS) included; the passes counted from the run's emulated time). The collector
 is off while the cycles are counted; the bytes a pass allocates, by piece, are counted apart:
 garbage a collection pays for later. A port write's own cost is measured and taken off each
 piece.
@@ -97,14 +96,12 @@ def table(got, cycles, calls, source):
         # a pass is _HOUSE_MS asleep plus its awake time: the passes from the run's emulated time
         passes = (got[key] - c / MHZ) / (got["house_ms"] * 1000.0)
         share.append(100.0 * c / (got[key] * MHZ))
-        step = got[key.replace("run_us", "alloc")]["step"]
-        row += " **%s** | %.0f (step) |" % ("{:,}".format(round(c / passes)), step)
+        row += " **%s** | %.0f (step) |" % ("{:,}".format(round(c / passes)), got[key.replace("run_us", "alloc")]["step"])
     lines.append(row)
     lines.append("| **App.run(): its share of 125 MHz** | **%.2f %%** | | **%.2f %%** | |" % tuple(share))
     lines.append("")
     lines.append("A port write (taken off each row): %.0f / %.0f cycles. Interrupts over the whole run (thread "
-                 "mode apart): %s. %d passes piece by piece after boot (100 with the session); heap free after "
-                 "boot %d B; the probe: %s, the supervisor "
+                 "mode apart): %s. %d passes a phase; heap free after boot %d B; the probe: %s, the supervisor "
                  "at the end: %s; watchdog %s ms; heap free with the session %s B, the session there at the end: %s; "
                  "the passes' errors: %s." % (
                      writes[100], writes[200],

@@ -30,10 +30,6 @@ _PORT = const(0x40068000)
 _ENTRY = const(0x100)
 PASSES = 250         # 5 emulated s a phase, piece by piece
 RUN_MS = 5000        # then App.run() itself
-# with a session: both within its first solve_every_s (5 s). Without samples no solve runs, and from
-# then on the session is due on every pass (Session.next_check_ms), which a real one never stays
-SESSION_PASSES = 100
-SESSION_RUN_MS = 2000
 # a piece's number within a phase (the bench's PIECES), added to the phase's base
 POLL, CHECK, BUTTON, PROTO, TICK, LED, PASSED, FEED, WAIT, WRITE, STEP = 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11
 WHOLE = 20
@@ -41,10 +37,6 @@ WHOLE = 20
 
 def flowing(acq):
     acq.state[FRAMES] += 20   # a pass's conversions at 1000 SPS: Health sees them flow
-
-
-def discard(data):
-    pass
 
 
 def takes_now(a):
@@ -144,9 +136,6 @@ def main():
     cfg = cfgmod.defaults()
     board = hal_micropython.Board(cfg, root="/disk")
     a = appmod.App(board)
-    # the events (a session's progress every second) are made but not sent: a write to the USB
-    # serial waits, awake, for the host to read, which is wall time on the host here
-    board.serial_write = discard
     sup = a.supervisor
     probe = sup.fault_code          # no chips on the pins: adc_probe
     sup.fault = sup.fault_code = None
@@ -170,8 +159,8 @@ def main():
     gc.collect()
     out["free_session"] = gc.mem_free()
     gc.disable()
-    pieces(a, 200, SESSION_PASSES, now_arg)
-    out["run_us_session"] = whole(a, 200, SESSION_RUN_MS)
+    pieces(a, 200, PASSES, now_arg)
+    out["run_us_session"] = whole(a, 200, RUN_MS)
     gc.enable()
     out["alloc_session"] = allocated(a, 50, now_arg)
     out["fault"] = sup.fault_code   # None: the supervisor stayed healthy throughout
