@@ -102,13 +102,11 @@ def table(got, cycles, calls, source):
     lines.append("")
     lines.append("A port write (taken off each row): %.0f / %.0f cycles. Interrupts over the whole run (thread "
                  "mode apart): %s. %d passes a phase; heap free after boot %d B; the probe: %s, the supervisor "
-                 "at the end: %s; watchdog %s ms; heap free with the session %s B, the session there at the end: %s; "
-                 "the passes' errors: %s." % (
+                 "at the end: %s; watchdog %s ms." % (
                      writes[100], writes[200],
                      ", ".join("%s %s cycles in %d" % (k, "{:,}".format(round(cycles[k])), calls.get(k, 0))
                                for k in sorted(cycles) if k.startswith("irq")),
-                     n, got["free"], got["probe"], got["fault"], got["watchdog"], got.get("free_session"),
-                     got.get("session_end"), got.get("errors")))
+                     n, got["free"], got["probe"], got["fault"], got["watchdog"]))
     return "\n".join(lines)
 
 
