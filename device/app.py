@@ -19,10 +19,7 @@ the serial line, drive the LED, then idle for _HOUSE_MS. The DRDY handler does
 the boxcar itself and the ring holds 1.28 s of samples, so a pass runs every
 _HOUSE_MS whatever the rates: the button, serial and LED work of a pass (~35k
 instructions on a Cortex-M, docs/firmware.md) is paid 50 times a second, not
-once per sample. On an RP2040 a Python call costs several k cycles, so a pass
-skips the calls with nothing due (the supervisor's check, the session's tick,
-the LED, the boot guard, wait()), tested where the owner would test it (`python -m
-desktop.bench.pico_loop`: a pass's pieces in cycles, docs/benchmarks.md).
+once per sample.
 
 Nothing stops the loop (docs/reliability.md): an exception in a pass is
 counted, reported and survived (bootguard.py); ADC faults after boot are named
@@ -39,7 +36,7 @@ from acquisition import Acquisition
 from bootguard import Guard
 from button import Button
 from calibration_flow import CalibrationFlow
-from health import CHECK_MS, AdcSupervisor
+from health import AdcSupervisor
 from led import Led
 from protocol import VERSION, Protocol
 from survey import Output
@@ -122,24 +119,14 @@ class App:
         # a board with a watchdog: a pass that never comes back resets it (hal.py, bootguard.py)
         self.watchdog_ms = self.cfg["watchdog_ms"] if b.watchdog_start(self.cfg["watchdog_ms"]) else None
         feed = b.watchdog_feed
-        # a pass's own calls cost a few k cycles each on an RP2040 (docs/benchmarks.md, the main
-        # loop's pass): those with nothing to do are skipped here. A board that never quits is not
-        # asked; a settled guard has nothing to count; a board that sleeps with the DRDY
-        # interrupt on sleeps without wait()'s frame
-        quits = getattr(b, "quits", True)
-        sleeps = b.sleeps_with_irq
-        while not self.quit and not (quits and b.quit_requested()):
+        while not self.quit and not b.quit_requested():
             try:
                 self.step()
-                if not guard.settled:
-                    guard.passed()
+                guard.passed()
             except Exception as e:  # noqa: BLE001 - nothing stops the instrument (docs/reliability.md)
                 guard.loop_error(e)
             feed()
-            if sleeps:
-                b.sleep_ms(_HOUSE_MS)   # wait()'s first case
-            else:
-                self.wait()
+            self.wait()
         self.output.close()
         if self.recorder is not None:
             self.recorder.stop()
@@ -155,11 +142,7 @@ class App:
             n = self.acq.poll(self._sample_cb, self._drain, self._gap_cb)
             if n:
                 b.busy(_SAMPLE_CAL if flow.session is not None else _SAMPLE, n)
-        # the supervisor's own early return, without its call: healthy and no check due
-        h = sup.health
-        now = b.ticks_ms()
-        if sup.fault or sup.verifying or h is None or b.ticks_diff(now, h.checked_at) >= CHECK_MS:
-            sup.check(now)
+        sup.check(b.ticks_ms())
         ev = self.button.poll()
         if ev is not None:
             if self.recorder is not None:
@@ -167,12 +150,9 @@ class App:
             else:
                 flow.press(ev)
         self.proto.poll()
-        now = b.ticks_ms()   # after the commands: what they started is due from here
-        if flow.session is not None and b.ticks_diff(now, flow.quiet_from) >= flow.quiet_ms:
-            flow.tick(now)     # its own early return, without its call: nothing due while quiet
-        led = self.led
-        if b.ticks_diff(now, led.start_ms) >= led.next_age:   # Led.update's own test, without its call
-            led.update(now)
+        if flow.session is not None:
+            flow.tick()
+        self.led.update()
 
     def _service(self):
         """The DRDY ring drained and the watchdog fed from inside a long step (the finish's tau

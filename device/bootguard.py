@@ -124,7 +124,6 @@ class Guard:
         self._in_row = 0
         self._error_event_ms = None
         self._healthy = False
-        self.settled = False       # healthy, no failure in a row: passed() has nothing to do (run() skips it)
 
     def uptime_ms(self):
         b = self.board
@@ -136,13 +135,11 @@ class Guard:
         if not self._healthy and self.uptime_ms() >= HEALTHY_MS:
             self._healthy = True
             healthy(self.board.root)
-        self.settled = self._healthy
 
     def loop_error(self, e):
         """An exception escaped a pass: count it, say it, cancel what it interrupted, go on."""
         self.errors += 1
         self._in_row += 1
-        self.settled = False
         self.last_error = "%s: %s" % (e.__class__.__name__, e)
         if isinstance(e, MemoryError):
             gc.collect()

@@ -29,12 +29,8 @@ class Button:
 
     def poll(self):
         b = self.board
-        raw = b.button()
-        # the usual pass: the contact settled, as debounced, and nothing timed is due (up, or
-        # held with LONG sent): no clock read
-        if raw == self._raw and raw == self._level and (not raw or self._long_sent):
-            return None
         now = b.ticks_ms()
+        raw = b.button()
         if raw != self._raw:
             self._raw = raw
             self._changed = now

@@ -5,7 +5,7 @@
     flow.configure(cfg)
     flow.press(ev)          # the button: idle, a short press starts (auto), a long one a quick one;
                             # calibrating, a short press finishes, a long one cancels
-    flow.tick(now)          # every main-loop pass while calibrating (now: ticks_ms): solves, progress, the LED
+    flow.tick()             # every main-loop pass while calibrating: solves, progress, the LED
     flow.start(kind, hold) / finish() / cancel() / install(cal) / clear()   # start-, finish-, cancel-, set-, clear-cal
     flow.status()           # its part of `status`
 
@@ -103,10 +103,11 @@ class CalibrationFlow:
         elif ev == LONG:
             self.cancel()
 
-    def tick(self, now):
-        # most passes end here (~60 k cycles less on an RP2040): nothing is due before quiet_ms from quiet_from
+    def tick(self):
+        # most passes end here (~60 k cycles less on an RP2040): nothing is due before _quiet_ms from _quiet_from
         # (_tick). The finish runs outside _tick's frame, which would keep the session and its bytecode on the heap
-        if self._diff(now, self.quiet_from) < self.quiet_ms:
+        now = self.board.ticks_ms()
+        if self._diff(now, self._quiet_from) < self._quiet_ms:
             return
         if self._tick(now):
             self.finish()
@@ -127,8 +128,8 @@ class CalibrationFlow:
         if solved and s.ready():
             self.led.set(ledp.ENOUGH)
             return self.cfg["auto_finish"] and not s.hold
-        self.quiet_from = now   # nothing due until the next solve (or check for one), progress, timeout
-        self.quiet_ms = min(s.next_check_ms(now, self._diff), 1000 - b.ticks_diff(now, self.last_progress))
+        self._quiet_from = now   # nothing due until the next solve (or check for one), progress, timeout
+        self._quiet_ms = min(s.next_check_ms(now, self._diff), 1000 - b.ticks_diff(now, self.last_progress))
         return s.timed_out(now, self._diff)
 
     def start(self, kind=AUTO, hold=False):
@@ -159,8 +160,8 @@ class CalibrationFlow:
         # from its own conversions only: the screen's and the de-lag's held samples let go (two
         # sessions on the same conversions agree to the bit: tests/micropython/two_sessions.py)
         self.output.gap()
-        self.last_progress = self.quiet_from = self.board.ticks_ms()
-        self.quiet_ms = 0          # tick(): nothing due for this long from quiet_from (the first pass: all due)
+        self.last_progress = self._quiet_from = self.board.ticks_ms()
+        self._quiet_ms = 0          # tick(): nothing due for this long from _quiet_from (the first pass: all due)
         self.led.set(ledp.COLLECTING)
         self.proto.event("cal", self.session.progress())
 

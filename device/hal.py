@@ -20,7 +20,6 @@ class Board:
     # scheduled): the main loop then sleeps between passes (app.App.wait). False where idle()
     # itself services DRDY (a polling HAL, the simulator's link).
     sleeps_with_irq = False
-    quits = False            # quit_requested() can say True (the simulators): else run() never asks
     # True where the firmware polls DRDY (no user interrupts: CircuitPython; the simulator's
     # polled board): conversions pass unseen while the main loop is busy, a gap every few
     # samples, so the de-lag by the ADC's response (config delag_adc "auto") stays off there.

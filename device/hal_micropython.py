@@ -130,25 +130,18 @@ class Board(hal.Board):
         self._drdy = P(cfg["pin_drdy"], P.IN, P.PULL_UP)
         self._button = P(cfg["pin_button"], P.IN, P.PULL_UP)  # active low to GND
         self._led = P(cfg["pin_led"], P.OUT, value=0)
-        self._ipoll = None         # bound once: serial_read runs every pass
+        self._poll = None
         if select is not None:
-            poll = select.poll()
-            poll.register(sys.stdin, select.POLLIN)
-            self._ipoll = poll.ipoll
+            self._poll = select.poll()
+            self._poll.register(sys.stdin, select.POLLIN)
         self._rbuf = bytearray(SERIAL_CHUNK)
         self._one = bytearray(1)
         self._wdt = None
         self._handler = None       # the DRDY handler attached (None: none)
         self._count = None         # (skip, window) the PIO counts (count_drdy), None: Pin.irq
         self._sm = None            # the counting state machine, once made
-        # App.wait calls idle() on every conversion: the C function itself, not a method around it.
-        # So too the clock and the pass's sleep: the main loop reads the clock several times a pass
-        # and the survey every sample, and a method around a C function is a Python frame a call
-        # (about 1 k cycles on an RP2040); loaded from the instance, no bound method is allocated
+        # App.wait calls idle() on every conversion: the C function itself, not a method around it
         self.idle = machine.idle
-        self.ticks_ms = time.ticks_ms
-        self.ticks_diff = time.ticks_diff
-        self.sleep_ms = time.sleep_ms
         try:
             micropython.kbd_intr(-1)
         except AttributeError:
@@ -250,9 +243,18 @@ class Board(hal.Board):
         sm.irq(handler, hard=True)
         sm.active(1)
 
-    # time (ticks_ms, ticks_diff, sleep_ms: time's own functions, set in __init__)
+    # time
+    def ticks_ms(self):
+        return time.ticks_ms()
+
+    def ticks_diff(self, a, b):
+        return time.ticks_diff(a, b)
+
     def sleep_us(self, us):
         time.sleep_us(us)
+
+    def sleep_ms(self, ms):
+        time.sleep_ms(ms)
 
     def time(self):
         t = time.time()
@@ -294,9 +296,9 @@ class Board(hal.Board):
         stdin tells only whether a byte is waiting, and a read of more than is there blocks,
         so one byte at a time, while poll says one is waiting: ipoll and readinto allocate
         nothing per byte (poll() and read(1) allocated two objects each)."""
-        ipoll = self._ipoll
-        if ipoll is None:
+        if self._poll is None:
             return None
+        ipoll = self._poll.ipoll
         for _ready in ipoll(0):
             break
         else:

@@ -53,7 +53,7 @@ class Health:
 
     def restart(self, now):
         st = self.acq.state
-        self.checked_at = now    # the last check (AdcSupervisor.check skips its call before CHECK_MS)
+        self._t = now
         self._seen = now         # last time FRAMES moved
         self._frames = st[FRAMES]
         self._blocks = st[BLOCKS]
@@ -61,7 +61,7 @@ class Health:
         self.flowing = False     # conversions came, with good headers, in the last check period
 
     def check(self, now, diff):
-        if diff(now, self.checked_at) < CHECK_MS:
+        if diff(now, self._t) < CHECK_MS:
             return None
         st = self.acq.state
         frames = st[FRAMES]
@@ -69,7 +69,7 @@ class Health:
         bad = st[BADSYNC]
         read = (blocks - self._blocks) * self.window   # frames read in the boxcars (wraps: < 0, skip)
         nbad = bad - self._bad
-        self.checked_at = now
+        self._t = now
         self.flowing = frames != self._frames
         if self.flowing:
             self._seen = now
@@ -174,21 +174,15 @@ class AdcSupervisor:
     def check(self, now):
         """Health of a running ADC; re-probe a faulty one every health.reprobe_ms."""
         b = self.board
-        h = self.health
-        if not self.verifying:
-            if self.fault:
-                ms = h.reprobe_ms if h is not None else REPROBE_MS
-                if self._reprobe_at is None or b.ticks_diff(now, self._reprobe_at) >= ms:
-                    self._reprobe_at = now
-                    self.start(self.cfg, reprobe=True)
-                return
-            # the usual pass: healthy and no check due, where Health.check would return at once:
-            # one Python call fewer (a few k cycles on an RP2040, 50 passes a second)
-            if h is None or b.ticks_diff(now, h.checked_at) < CHECK_MS:
-                return
-        if h is None:
+        if self.fault and not self.verifying:
+            ms = self.health.reprobe_ms if self.health is not None else REPROBE_MS
+            if self._reprobe_at is None or b.ticks_diff(now, self._reprobe_at) >= ms:
+                self._reprobe_at = now
+                self.start(self.cfg, reprobe=True)
             return
-        problem = h.check(now, b.ticks_diff)
+        if self.health is None:
+            return
+        problem = self.health.check(now, b.ticks_diff)
         if problem is not None:
             self.verifying = False
             self.set_fault(problem[0], problem[1])

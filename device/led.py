@@ -19,7 +19,6 @@ FAILED = (100, 100, 100, 100, 100, 100, 800, 400)  # triple blink, twice
 KEPT_PREVIOUS = (0, 300, 1200, 300, 100, 100, 100, 100, 100, 400)
 FAULT = (50, 50)                      # ADC fault: not answering, DRDY stuck, bad frames
 SAFE = (100, 100, 100, 1700)          # double blip: safe mode, the stored calibration not applied
-_NOW = -(1 << 29)     # _next after set() and flash(): due at the next update, whatever its `now`
 
 
 class Led:
@@ -28,9 +27,8 @@ class Led:
         self.base = UNCALIBRATED
         self._pattern = UNCALIBRATED
         self._until = None      # a one-shot pattern reverts to base at this tick
-        self.start_ms = board.ticks_ms()
-        # age (ms since start_ms) of the next change: nothing to do before it (app.py tests it too)
-        self.next_age = _NOW
+        self._start = board.ticks_ms()
+        self._next = -1         # age (ms since _start) of the next change: nothing to do before it
 
     def set(self, pattern):
         """Change the steady pattern (a one-shot in progress finishes first)."""
@@ -38,32 +36,31 @@ class Led:
             self.base = pattern
             if self._until is None:
                 self._pattern = pattern
-                self.start_ms = self.board.ticks_ms()
-                self.next_age = _NOW
+                self._start = self.board.ticks_ms()
+                self._next = -1
 
     def flash(self, pattern, ms=None):
         """Show a pattern once (or for ms), then return to the steady one."""
         b = self.board
         self._pattern = pattern
-        self.start_ms = b.ticks_ms()
+        self._start = b.ticks_ms()
         total = 0
         for d in pattern:
             total += d
         self._until = (ms if ms is not None else total) or 1
-        self.next_age = _NOW
+        self._next = -1
 
-    def update(self, now):
-        """Every main-loop pass, now its ticks_ms: returns at once until the next change is due."""
+    def update(self):
+        # every main-loop pass: return at once until the next change is due
         b = self.board
-        age = b.ticks_diff(now, self.start_ms)
-        if age < self.next_age:
+        now = b.ticks_ms()
+        age = b.ticks_diff(now, self._start)
+        if age < self._next:
             return
-        if age < 0:
-            age = 0     # set() or flash() in this pass, after `now` was read: the pattern starts
         if self._until is not None and age >= self._until:
             self._until = None
             self._pattern = self.base
-            self.start_ms = now
+            self._start = now
             age = 0
         p = self._pattern
         period = 0
@@ -81,5 +78,5 @@ class Led:
         nxt = age + left
         if self._until is not None and self._until < nxt:
             nxt = self._until
-        self.next_age = nxt
+        self._next = nxt
         b.led(on)

@@ -29,17 +29,11 @@ DEVICE = ("gates", "residuals", "config")
 
 def _disk(folder, source):
     """shared/ and the gates' modules from `source`, and the script, as .mpy; the native modules."""
-    mpy_disk(folder, source, DEVICE, [(SCRIPT, "pico_gates.py")])
-
-
-def mpy_disk(folder, source, device, scripts):
-    """shared/ and device/NAME.py (NAME in `device`) from `source`, the scripts [(path, name.py)], as
-    .mpy from the Pico's mpy-cross; the native modules for armv6m as deploy installs them."""
     cross = pico_parts()["mpy_cross"]
     os.makedirs(os.path.join(folder, "shared"))
     pairs = [(os.path.join(source, "shared", n), os.path.join("shared", n))
              for n in sorted(os.listdir(os.path.join(source, "shared"))) if n.endswith(".py")]
-    pairs += [(os.path.join(source, "device", n + ".py"), n + ".py") for n in device] + list(scripts)
+    pairs += [(os.path.join(source, "device", n + ".py"), n + ".py") for n in DEVICE] + [(SCRIPT, "pico_gates.py")]
     for src, rel in pairs:
         subprocess.run([cross, "-o", os.path.join(folder, rel[:-3] + ".mpy"), src], check=True)
     for module in MODULES:          # as deploy installs them, where built

@@ -36,7 +36,6 @@ _TICKS_HALF = (T_MASK + 1) // 2
 
 
 class Board(hal.Board):
-    quits = True     # quit_requested(): the simulation's power-off
     def __init__(self, link, root=".", lock_heap_in_isr=False, polled=False, costs=None):
         self.link = link
         self.root = root
