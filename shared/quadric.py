@@ -65,12 +65,10 @@ class Problem:
         if self.e > FRAC:
             raise ValueError("input values too large for the fixed-point frame")
         self.shift = 1 << (FRAC - self.e)
-        scaled_u = scaled(u, self.shift)   # exact sums of V = 2^FRAC v for the centre C
+        self.scaled = scaled(u, self.shift)   # exact sums of V = 2^FRAC v for the centre C
         # the same sums in machine words where the native kernels run (shared.solvewords): a
-        # state's sums are then such words, re-centred and evaluated in C; else lists of ints.
-        # One of the two is kept (a board's heap), the ints where the words could not be made.
-        self.words = solvewords.pack(scaled_u) if solvewords.available(FRAC) else None
-        self.scaled = scaled_u if self.words is None else None
+        # state's sums are then such words, re-centred and evaluated in C; else lists of ints
+        self.words = solvewords.pack(self.scaled) if solvewords.available(FRAC) else None
         self.cov = [[num(to_float(c, -2 * self.e)) / (self.nf * self.nf) for c in row] for row in cov]
 
     # -- exact part ----------------------------------------------------------
@@ -87,17 +85,14 @@ class Problem:
             out = solvewords.recentre(sums, centre)
             if out is not None:
                 return out
-            sums = solvewords.unpack(sums)
+            sums = self.scaled if near is None else solvewords.unpack(sums)
         return recentred(sums, centre)
 
     def floats(self, s):
         """value(idx, exponent) = to_float(s[idx], exponent), for the sums s of a state (a list, or
         words: then from the native cut of each sum, the same floats)."""
         if type(s) is bytearray:
-            value = solvewords.floats(s)
-            if value is not None:
-                return value
-            s = solvewords.unpack(s)
+            return solvewords.floats(s)
 
         def value(idx, exponent):
             return to_float(s[idx], exponent)

@@ -4,10 +4,7 @@
     out = recentre(words, centre)         # shared.moments.recentred in words, or None
     ga, t, rss = exact(words, a_int, n)   # shared.quadric.Problem.exact, or None
     ints = unpack(words)                  # the 35 ints back
-    value = floats(words)                 # value(idx, exponent) == to_float(ints[idx], exponent), or None
-
-Each pack is one heap block (1400 bytes for 35 sums), which a fragmented heap may not have:
-then too the functions return None (MemoryError caught) and the ints, smaller blocks, are used.
+    value = floats(words)                 # value(idx, exponent) == to_float(ints[idx], exponent)
 
 On a 32-bit MicroPython port every big-integer operation is a heap allocation, and the
 solver's re-centred sums (about 200 bits) and its exact RSS and gradient were a fifth of a
@@ -48,11 +45,8 @@ def available(frac):
 
 
 def pack(ints):
-    """The numbers as a bytearray of BYTES-byte two's complements, or None if one does not fit
-    (or the heap has no block for it)."""
-    out = _block(len(ints) * BYTES)
-    if out is None:
-        return None
+    """The numbers as a bytearray of BYTES-byte two's complements, or None if one does not fit."""
+    out = bytearray(len(ints) * BYTES)
     at = 0
     for x in ints:
         if not -_HALF <= x < _HALF:
@@ -60,14 +54,6 @@ def pack(ints):
         out[at:at + BYTES] = (x & _MASK).to_bytes(BYTES, "little")
         at += BYTES
     return out
-
-
-def _block(size):
-    """A zeroed bytearray of size bytes, or None where the heap has no free block that large."""
-    try:
-        return bytearray(size)
-    except MemoryError:
-        return None
 
 
 def number(words, k):
@@ -95,8 +81,8 @@ def recentre(words, centre):
     c = _int64s(centre)
     if c is None:
         return None
-    out = _block(COUNT * BYTES)
-    return out if out is not None and fitsums.recentre(words, out, c, CHAINS) else None
+    out = bytearray(COUNT * BYTES)
+    return out if fitsums.recentre(words, out, c, CHAINS) else None
 
 
 def exact(words, a_int, n, tables):
@@ -105,20 +91,17 @@ def exact(words, a_int, n, tables):
     a = _int64s(a_int)
     if a is None or not 0 <= n < (1 << 30):
         return None
-    out = _block(10 * BYTES)
-    if out is None or not fitsums.exact(words, a, n, tables, out):
+    out = bytearray(10 * BYTES)
+    if not fitsums.exact(words, a, n, tables, out):
         return None
     return [number(out, k) for k in range(6)], [number(out, k) for k in range(6, 9)], number(out, 9)
 
 
 def floats(words):
     """value(idx, exponent): to_float(sum idx, exponent), from the C code's cut of each sum to
-    53 bits (the integer to_float converts) and the shift it took; None where the heap has no room."""
-    try:
-        cut = array("q", bytes(8 * COUNT))
-        extra = array("H", bytes(2 * COUNT))
-    except MemoryError:
-        return None
+    53 bits (the integer to_float converts) and the shift it took."""
+    cut = array("q", bytes(8 * COUNT))
+    extra = array("H", bytes(2 * COUNT))
     fitsums.tops(words, cut, extra)
 
     def value(idx, exponent):
