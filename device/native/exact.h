@@ -1,6 +1,6 @@
 // exact.h: the solver's exact integer kernels (shared/quadric.py Problem.sums_at, Problem.exact,
 // and the 53-bit cuts of shared.moments.to_float) in machine words, for fitsums.c (included
-// after wide.h: mul32, small_within):
+// after mul32):
 //
 //     recentre(src, dst, centre, chains)     # shared.moments.recentred: True, or False (past the words)
 //     exact(s, a, n, tables, out)           # Problem.exact's g_A, T, RSS into out: True, or False
@@ -20,33 +20,33 @@
 #define SOLVE_OUT (10)
 #define SOLVE_FRAC (40)       // shared.quadric.FRAC: Problem.exact's shifts are 3 and 6 FRAC
 
-typedef struct { uint32_t w[SOLVE_WORDS]; } big_t;
+typedef struct { uint32_t w[SOLVE_WORDS]; } wide_t;
 
 // (word by word, volatile: a struct copy or a plain loop may become a memcpy or memset, which
 // are not linked)
-static void copy(big_t *dst, const big_t *src) {
+static void copy(wide_t *dst, const wide_t *src) {
     volatile uint32_t *d = dst->w;
     for (int i = 0; i < SOLVE_WORDS; i++) {
         d[i] = src->w[i];
     }
 }
 
-static void zero(big_t *dst) {
+static void zero(wide_t *dst) {
     volatile uint32_t *d = dst->w;
     for (int i = 0; i < SOLVE_WORDS; i++) {
         d[i] = 0;
     }
 }
 
-static inline bool big_negative(const big_t *x) {
+static inline bool wide_negative(const wide_t *x) {
     return (x->w[SOLVE_WORDS - 1] >> 31) != 0;
 }
 
 // acc += sign * (x * c) for a 64-bit magnitude c = c0 + 2^32 c1; false where the product or
 // the sum passes the words' signed range (acc is then garbage: the caller gives up)
-static bool big_muladd(big_t *acc, const big_t *x, uint32_t c0, uint32_t c1, bool negate) {
+static bool wide_muladd(wide_t *acc, const wide_t *x, uint32_t c0, uint32_t c1, bool negate) {
     uint32_t m[SOLVE_WORDS];
-    bool neg = big_negative(x);
+    bool neg = wide_negative(x);
     uint32_t flip = neg ? 0xffffffff : 0;
     uint64_t carry = neg ? 1 : 0;
     for (int i = 0; i < SOLVE_WORDS; i++) {         // |x|
@@ -77,7 +77,7 @@ static bool big_muladd(big_t *acc, const big_t *x, uint32_t c0, uint32_t c1, boo
         return false;
     }
     bool sub = neg != negate;
-    bool before = big_negative(acc);
+    bool before = wide_negative(acc);
     flip = sub ? 0xffffffff : 0;
     carry = sub ? 1 : 0;
     for (int i = 0; i < SOLVE_WORDS; i++) {
@@ -87,14 +87,14 @@ static bool big_muladd(big_t *acc, const big_t *x, uint32_t c0, uint32_t c1, boo
     }
     // a signed overflow: adding a positive to a non-negative gave a negative, or subtracting
     // one from a negative gave a non-negative
-    return sub ? !(before && !big_negative(acc)) : !(!before && big_negative(acc));
+    return sub ? !(before && !wide_negative(acc)) : !(!before && wide_negative(acc));
 }
 
 // acc -= x << bits (or += when add), x >= 0 or not; false past the words
-static bool big_shift_add(big_t *acc, const big_t *x, int bits, bool add) {
-    big_t y;
+static bool wide_shift_add(wide_t *acc, const wide_t *x, int bits, bool add) {
+    wide_t y;
     int q = bits >> 5, r = bits & 31;
-    uint32_t fill = big_negative(x) ? 0xffffffff : 0;
+    uint32_t fill = wide_negative(x) ? 0xffffffff : 0;
     for (int i = SOLVE_WORDS - 1; i >= 0; i--) {
         uint32_t hi = i - q >= 0 ? x->w[i - q] : 0;
         uint32_t lo = i - q - 1 >= 0 ? x->w[i - q - 1] : 0;
@@ -108,17 +108,17 @@ static bool big_shift_add(big_t *acc, const big_t *x, int bits, bool add) {
             return false;
         }
     }
-    return big_muladd(acc, &y, 1, 0, !add);
+    return wide_muladd(acc, &y, 1, 0, !add);
 }
 
 // a buffer of at least `count` numbers, read-write when `write`
-static big_t *bigs(mp_obj_t o, int count, int flags) {
+static wide_t *wides(mp_obj_t o, int count, int flags) {
     mp_buffer_info_t bufinfo;
     mp_get_buffer_raise(o, &bufinfo, flags);
-    if (bufinfo.len < count * sizeof(big_t)) {
+    if (bufinfo.len < count * sizeof(wide_t)) {
         mp_raise_ValueError(MP_ERROR_TEXT("fitsums: buffer holds too few numbers"));
     }
-    return (big_t *)bufinfo.buf;
+    return (wide_t *)bufinfo.buf;
 }
 
 // the `count` 64-bit two's complements of a bytes object as signs and magnitudes
@@ -156,8 +156,8 @@ static const uint8_t *table(mp_obj_t o, size_t need) {
 // passes k = 1 .. d of M_t -= c M_(t-1) for t from the top down to k. chains: the three axes'
 // moments._CHAINS, each prefixed by its length in one byte. True, or False past the words.
 static mp_obj_t recentre(size_t n_args, const mp_obj_t *args) {
-    const big_t *src = bigs(args[0], SOLVE_SUMS, MP_BUFFER_READ);
-    big_t *s = bigs(args[1], SOLVE_SUMS, MP_BUFFER_RW);
+    const wide_t *src = wides(args[0], SOLVE_SUMS, MP_BUFFER_READ);
+    wide_t *s = wides(args[1], SOLVE_SUMS, MP_BUFFER_RW);
     uint32_t c[6];
     bool neg[3];
     signed64(args[2], 3, c, neg);
@@ -195,7 +195,7 @@ static mp_obj_t recentre(size_t n_args, const mp_obj_t *args) {
                         mp_raise_ValueError(MP_ERROR_TEXT("fitsums: bad chain"));
                     }
                     // s[upper] -= c s[lower]
-                    if (!big_muladd(&s[upper], &s[lower], c[2 * axis], c[2 * axis + 1], !neg[axis])) {
+                    if (!wide_muladd(&s[upper], &s[lower], c[2 * axis], c[2 * axis + 1], !neg[axis])) {
                         return mp_const_false;
                     }
                 }
@@ -215,7 +215,7 @@ static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(recentre_obj, 4, 4, recentre);
 //     T[i] = sum_k ac_k S[IDX3[i][k]] - 2^3F S[IDX1[i]]
 //     RSS = 2^6F n - 2^3F sum_k ac_k S[IDX2[k]] + sum_m a_m g_A[m]
 static mp_obj_t exact(size_t n_args, const mp_obj_t *args) {
-    const big_t *s = bigs(args[0], SOLVE_SUMS, MP_BUFFER_READ);
+    const wide_t *s = wides(args[0], SOLVE_SUMS, MP_BUFFER_READ);
     uint32_t a[12], ac[12];
     bool neg[6];
     signed64(args[1], 6, a, neg);
@@ -229,7 +229,7 @@ static mp_obj_t exact(size_t n_args, const mp_obj_t *args) {
             mp_raise_ValueError(MP_ERROR_TEXT("fitsums: bad index"));
         }
     }
-    big_t *out = bigs(args[4], SOLVE_OUT, MP_BUFFER_RW);
+    wide_t *out = wides(args[4], SOLVE_OUT, MP_BUFFER_RW);
     for (int k = 0; k < 6; k++) {
         ac[2 * k] = a[2 * k];
         ac[2 * k + 1] = a[2 * k + 1];
@@ -241,19 +241,19 @@ static mp_obj_t exact(size_t n_args, const mp_obj_t *args) {
             ac[2 * k] = a[2 * k] << 1;
         }
     }
-    big_t acc;
+    wide_t acc;
     // rows 0..5: g_A; 6..8: T; 9: the linear term of the RSS (sum_k ac_k S[IDX2[k]])
     for (int row = 0; row < 10; row++) {
         const uint8_t *r = row < 6 ? idx + 6 * row : row < 9 ? idx + 36 + 6 * (row - 6) : idx + 54;
         zero(&acc);
         for (int k = 0; k < 6; k++) {
-            if (!big_muladd(&acc, &s[r[k]], ac[2 * k], ac[2 * k + 1], neg[k])) {
+            if (!wide_muladd(&acc, &s[r[k]], ac[2 * k], ac[2 * k + 1], neg[k])) {
                 return mp_const_false;
             }
         }
         if (row < 9) {
             uint8_t lin = row < 6 ? idx[54 + row] : idx[60 + row - 6];
-            if (!big_shift_add(&acc, &s[lin], 3 * SOLVE_FRAC, false)) {
+            if (!wide_shift_add(&acc, &s[lin], 3 * SOLVE_FRAC, false)) {
                 return mp_const_false;
             }
         }
@@ -261,7 +261,7 @@ static mp_obj_t exact(size_t n_args, const mp_obj_t *args) {
             copy(&out[row], &acc);
         } else {
             zero(&out[row]);
-            if (!big_muladd(&out[row], &acc, 2, 0, false)) {
+            if (!wide_muladd(&out[row], &acc, 2, 0, false)) {
                 return mp_const_false;
             }
         }
@@ -269,13 +269,13 @@ static mp_obj_t exact(size_t n_args, const mp_obj_t *args) {
     // RSS = 2^6F n - 2^3F lin + sum_m a_m g_A[m], into out[9] (which holds lin)
     zero(&acc);
     acc.w[0] = (uint32_t)count;
-    big_t rss;
+    wide_t rss;
     zero(&rss);
-    if (!big_shift_add(&rss, &acc, 6 * SOLVE_FRAC, true) || !big_shift_add(&rss, &out[9], 3 * SOLVE_FRAC, false)) {
+    if (!wide_shift_add(&rss, &acc, 6 * SOLVE_FRAC, true) || !wide_shift_add(&rss, &out[9], 3 * SOLVE_FRAC, false)) {
         return mp_const_false;
     }
     for (int m = 0; m < 6; m++) {
-        if (!big_muladd(&rss, &out[m], a[2 * m], a[2 * m + 1], neg[m])) {
+        if (!wide_muladd(&rss, &out[m], a[2 * m], a[2 * m + 1], neg[m])) {
             return mp_const_false;
         }
     }
@@ -288,7 +288,7 @@ static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(exact_obj, 5, 5, exact);
 // extra = max(bit_length(|x|) - 53, 0) and cut = x >> extra (a floor), into cut (an
 // array("q"), 35) and extra (an array("H"), 35). to_float(x, e) is then ldexp(float(cut), e + extra).
 static mp_obj_t tops(size_t n_args, const mp_obj_t *args) {
-    const big_t *s = bigs(args[0], SOLVE_SUMS, MP_BUFFER_READ);
+    const wide_t *s = wides(args[0], SOLVE_SUMS, MP_BUFFER_READ);
     mp_buffer_info_t bufinfo;
     mp_get_buffer_raise(args[1], &bufinfo, MP_BUFFER_RW);
     if (bufinfo.len < SOLVE_SUMS * 8) {
@@ -302,7 +302,7 @@ static mp_obj_t tops(size_t n_args, const mp_obj_t *args) {
     uint16_t *extra = (uint16_t *)bufinfo.buf;
     for (int n = 0; n < SOLVE_SUMS; n++) {
         const uint32_t *w = s[n].w;
-        uint32_t fill = big_negative(&s[n]) ? 0xffffffff : 0;
+        uint32_t fill = wide_negative(&s[n]) ? 0xffffffff : 0;
         // bit_length(|x|): for x < 0, |x| = ~x + 1, whose length is that of ~x except at
         // x = -2^k (~x = 2^k - 1, one bit shorter): found from the words of ~x
         uint32_t m[SOLVE_WORDS];
