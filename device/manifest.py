@@ -37,8 +37,7 @@ elif options.runtime == "sim":
 package("shared", files=["__init__.py", "calibration.py", "codes.py", "coverage.py", "delag.py", "errors.py",
                          "fit.py", "fixedpoint.py", "honest.py", "iteration.py", "linalg.py", "moments.py", "predicted.py", "prior.py",
                          "quadric.py",
-                         "quick.py", "response.py", "result.py", "solver.py", "solvewords.py", "start.py", "tausums.py",
-                         "tempco.py"],
+                         "quick.py", "response.py", "result.py", "solver.py", "start.py", "tausums.py", "tempco.py"],
         base_path="..", opt=3)
 
 # Entry points: copied to the filesystem's root, never frozen (a user edits or replaces them);

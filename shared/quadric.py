@@ -15,8 +15,7 @@ data gradient sum w r, sum v r and the residual sum of squares are computed
 type (shared.solver explains why that is enough).
 """
 
-from shared import solvewords
-from shared.moments import COUNT, INDEX, bit_length, mean_centre, recentred, scaled, shifted, to_float
+from shared.moments import INDEX, bit_length, mean_centre, recentred, scaled, shifted, to_float
 
 FRAC = 40  # fractional bits of the fixed-point parameters (relative 1e-12)
 
@@ -39,8 +38,6 @@ _IDX1 = [INDEX[e] for e in UNIT]
 _IDX2M = [[INDEX[add_exp(UNIT[i], UNIT[j])] for j in range(3)] for i in range(3)]
 # (storage index, degree) of the power sums the normal matrix uses: degrees 2 to 4
 _MEANS = tuple((INDEX[e], e[0] + e[1] + e[2]) for e in INDEX if 2 <= e[0] + e[1] + e[2] <= 4)
-# the tables above as bytes for the native exact() (shared.solvewords): _IDX4, _IDX3, _IDX2, _IDX1
-_TABLES = bytes([i for row in _IDX4 for i in row] + [i for row in _IDX3 for i in row] + _IDX2 + _IDX1)
 
 def sym(a):
     return [[a[0], a[3], a[4]], [a[3], a[1], a[5]], [a[4], a[5], a[2]]]
@@ -66,9 +63,6 @@ class Problem:
             raise ValueError("input values too large for the fixed-point frame")
         self.shift = 1 << (FRAC - self.e)
         self.scaled = scaled(u, self.shift)   # exact sums of V = 2^FRAC v for the centre C
-        # the same sums in machine words where the native kernels run (shared.solvewords): a
-        # state's sums are then such words, re-centred and evaluated in C; else lists of ints
-        self.words = solvewords.pack(self.scaled) if solvewords.available(FRAC) else None
         self.cov = [[num(to_float(c, -2 * self.e)) / (self.nf * self.nf) for c in row] for row in cov]
 
     # -- exact part ----------------------------------------------------------
@@ -77,26 +71,9 @@ class Problem:
         `near` at the centre f_near, given as (sums, f_near), where one is at hand: the
         same integers, from smaller products (the iteration's steps are small)."""
         if near is None:
-            sums, centre = (self.scaled if self.words is None else self.words), f_int
-        else:
-            sums, f_near = near
-            centre = [f_int[0] - f_near[0], f_int[1] - f_near[1], f_int[2] - f_near[2]]
-        if type(sums) is bytearray:       # in words (the native kernels): in C where they fit
-            out = solvewords.recentre(sums, centre)
-            if out is not None:
-                return out
-            sums = self.scaled if near is None else solvewords.unpack(sums)
-        return recentred(sums, centre)
-
-    def floats(self, s):
-        """value(idx, exponent) = to_float(s[idx], exponent), for the sums s of a state (a list, or
-        words: then from the native cut of each sum, the same floats)."""
-        if type(s) is bytearray:
-            return solvewords.floats(s)
-
-        def value(idx, exponent):
-            return to_float(s[idx], exponent)
-        return value
+            return recentred(self.scaled, f_int)
+        sums, f_near = near
+        return recentred(sums, [f_int[0] - f_near[0], f_int[1] - f_near[1], f_int[2] - f_near[2]])
 
     def exact(self, s, a_int):
         """(g_A, T, RSS) as exact ints: 2^5F sum w r, 2^4F sum v r, 2^6F sum r^2.
@@ -106,11 +83,6 @@ class Problem:
         T[i] = sum_k ac_k S[e_i + W_EXP k] - 2^3F S[e_i],
         RSS = 2^6F n - 2^3F sum_m ac_m S[W_EXP m] + sum_m a_m g_A[m].
         """
-        if type(s) is bytearray:          # in words: in C where they fit, else the ints
-            got = solvewords.exact(s, a_int, self.n, _TABLES)
-            if got is not None:
-                return got
-            s = solvewords.unpack(s)
         f3 = 3 * FRAC
         ac = [a_int[0], a_int[1], a_int[2], a_int[3] << 1, a_int[4] << 1, a_int[5] << 1]
         a0, a1, a2, a3, a4, a5 = ac
@@ -150,10 +122,9 @@ class Problem:
             a = [self.value(x, -FRAC) for x in a_int]
         am = sym(a)
         # the mean of each power sum of degree 2..4 the blocks use, by storage index
-        mean = [None] * COUNT
-        value = self.floats(s)
+        mean = [None] * len(s)
         for idx, degree in _MEANS:
-            mean[idx] = num(value(idx, -degree * FRAC))
+            mean[idx] = num(to_float(s[idx], -degree * FRAC))
         weights = [num(float(c)) for c in (1, 2, 4)]
         m4 = [[None] * 6 for _ in range(6)]
         for m in range(6):
@@ -210,9 +181,8 @@ class Problem:
         num = self.num
         nf = self.nf
         am = sym(a)
-        value = self.floats(s)
-        m2 = [[num(value(_IDX2M[i][j], -2 * FRAC)) / nf for j in range(3)] for i in range(3)]
-        m1 = [num(value(_IDX1[i], -FRAC)) / nf for i in range(3)]
+        m2 = [[self.value(s[_IDX2M[i][j]], -2 * FRAC) / nf for j in range(3)] for i in range(3)]
+        m1 = [self.value(s[_IDX1[i]], -FRAC) / nf for i in range(3)]
         a_s = [[am[i][0] * m2[0][j] + am[i][1] * m2[1][j] + am[i][2] * m2[2][j] for j in range(3)] for i in range(3)]
         a2 = [[am[i][0] * am[0][j] + am[i][1] * am[1][j] + am[i][2] * am[2][j] for j in range(3)] for i in range(3)]
         tr = am[0][0] + am[1][1] + am[2][2]

@@ -45,8 +45,7 @@ GROUPS = [("at boot (import app)", ["shared.codes", "store", "protocol", "config
                                     "health", "bootguard", "button", "screen", "shared.fixedpoint", "shared.delag",
                                     "survey", "shared.calibration", "commands", "calibration_flow", "app"]),
           ("when a session starts, dropped when it ends", [
-              "shared.errors", "shared.moments", "shared.solvewords", "shared.linalg", "shared.quadric",
-              "shared.iteration", "shared.prior",
+              "shared.errors", "shared.moments", "shared.linalg", "shared.quadric", "shared.iteration", "shared.prior",
               "shared.predicted", "shared.result", "shared.start", "shared.solver", "shared.fit", "shared.coverage",
               "gates", "acceptance", "session"]),
           ("when first needed (the finish, `survey start`)", ["shared.quick", "shared.tempco", "surveylog"])]

@@ -24,13 +24,7 @@
 //     fitsums.survey(words, sx, sy, sz, st)     # a sample into device/survey.py's block
 //     fitsums.correct(numbers, sx, sy, sz)      # ExactCorrection.correct's h_c, or None
 //
-// are the survey's exact |h_c|, block sums and h_c (hc.h), and
-//
-//     fitsums.recentre(src, dst, centre, chains)   # shared.quadric's re-centred sums, in words
-//     fitsums.exact(s, a, n, tables, out)         # Problem.exact's g_A, T, RSS
-//     fitsums.tops(s, cut, extra)                 # to_float's 53-bit cuts
-//
-// the solver's exact integer kernels (exact.h).
+// are the survey's exact |h_c|, block sums and h_c (hc.h).
 
 #include "py/dynruntime.h"
 
@@ -119,7 +113,6 @@ static mp_obj_t add(size_t n_args, const mp_obj_t *args) {
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(add_obj, 4, 5, add);
 
 #include "hc.h"       // the survey's |h_c|, block sums and h_c: magnitude, survey, correct
-#include "exact.h"    // the solver's exact kernels: recentre, exact, tops
 
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
     MP_DYNRUNTIME_INIT_ENTRY
@@ -127,11 +120,6 @@ mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *a
     mp_store_global(MP_QSTR_magnitude, MP_OBJ_FROM_PTR(&magnitude_obj));
     mp_store_global(MP_QSTR_survey, MP_OBJ_FROM_PTR(&survey_obj));
     mp_store_global(MP_QSTR_correct, MP_OBJ_FROM_PTR(&correct_obj));
-    mp_store_global(MP_QSTR_recentre, MP_OBJ_FROM_PTR(&recentre_obj));
-    mp_store_global(MP_QSTR_exact, MP_OBJ_FROM_PTR(&exact_obj));
-    mp_store_global(MP_QSTR_tops, MP_OBJ_FROM_PTR(&tops_obj));
-    mp_store_global(MP_QSTR_SOLVE_WORDS, MP_OBJ_NEW_SMALL_INT(SOLVE_WORDS));
-    mp_store_global(MP_QSTR_SOLVE_FRAC, MP_OBJ_NEW_SMALL_INT(SOLVE_FRAC));
     mp_store_global(MP_QSTR_SURVEY_LIMBS, MP_OBJ_NEW_SMALL_INT(SURVEY_LIMBS));
     mp_store_global(MP_QSTR_NUMBERS, MP_OBJ_NEW_SMALL_INT(NUMBERS));
     mp_store_global(MP_QSTR_WORDS, MP_OBJ_NEW_SMALL_INT(WORDS));
