@@ -38,10 +38,11 @@ def root():
 # --dist worksteal) start them early and end together on short ones, not with one long test
 # running alone at the end. Order only: nothing here skips or changes a test.
 _LONG_FIRST = (
-    "test_pico_laptop.py", "test_deploy_wheel.py", "test_cli_experiment.py", "test_laptop_chain.py",
-    "test_native_magnitude.py", "test_device_slow_sensor.py", "test_survey_record.py",
-    "test_native_gates.py", "test_native_screen.py", "test_pico_frozen.py", "test_native_sums.py",
-    "test_deploy.py", "test_native_delag.py", "test_native_drdy.py", "test_cli.py",
+    "test_native_gatesc.py", "test_pico_laptop.py", "test_deploy_wheel.py", "test_cli_experiment.py",
+    "test_survey_exact.py", "test_laptop_chain.py", "test_native_magnitude.py", "test_device_slow_sensor.py",
+    "test_survey_record.py", "test_native_gates.py", "test_native_screen.py", "test_pico_frozen.py",
+    "test_native_sums.py", "test_deploy.py", "test_native_delag.py", "test_native_drdy.py",
+    "test_device_survey_day.py", "test_cli_device.py", "test_native_drain.py", "test_cli.py",
 )
 
 
