@@ -2,9 +2,11 @@
 at 125 MHz (desktop/devicesim/pico_handheld.py), every load figure in emulated cycles, not estimates.
 
     python -m desktop.bench.pico [--window 10]      # about 6-10 min on a 2-core machine
+    python -m desktop.bench.pico --frozen           # the image with the firmware frozen in (make pico-frozen)
 
 What, on one emulated Pico (idle time jumped, the operator following the LED):
-- deploy: `fluxcal deploy`'s code (.mpy for armv6m) onto an empty flash, wall s; boot: emulated
+- deploy: `fluxcal deploy`'s code (.mpy for armv6m; with --frozen the rp2-pico-frozen image, whose
+  modules are in flash, and deploy installs main.py and the native modules) onto an empty flash, wall s; boot: emulated
   time from the reset that ends the deploy to the firmware's main loop;
 - a hand calibration (pico_session.py): `window` emulated s calibrating (auto-finish off), the
   finish, then `window` s of a steady spin in survey with the stream on (corrected);
@@ -155,12 +157,12 @@ def _profiled_firmware(hh, dev):
     return open_device(hh.port, timeout=120)
 
 
-def pico_run(window_s, log):
+def pico_run(window_s, log, frozen=False):
     from desktop.firmware.deploy import MicroPythonDeploy, firmware_version
     from desktop.link import DeviceError, open_device, wait_for_version
 
     with tempfile.TemporaryDirectory(prefix="fluxcal-pico-bench-") as tmp:
-        with PicoHandheld(tmp, idle="jump") as hh:
+        with PicoHandheld(tmp, idle="jump", frozen=frozen) as hh:
             t = time.monotonic()
             MicroPythonDeploy(hh.port, compiled=True).run()
             deploy_wall = time.monotonic() - t
@@ -219,6 +221,8 @@ def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m desktop.bench.pico", description=__doc__.split("\n")[0])
     p.add_argument("--window", type=float, default=10.0,
                    help="emulated seconds each window lasts (default 10: two provisional solves)")
+    p.add_argument("--frozen", action="store_true",
+                   help="the image with the firmware frozen in (make pico-frozen) instead of .mpy files")
     args = p.parse_args(argv)
     t0 = time.time()
 
@@ -228,12 +232,13 @@ def main(argv=None):
     # the Cortex-M3 counts (qemu, deterministic) meanwhile: they share the cores, not the figures
     counting = threading.Thread(target=lambda: m3.update(pico_compare.m3_counts()), daemon=True)
     counting.start()
-    pico = pico_run(args.window, log)
+    pico = pico_run(args.window, log, args.frozen)
     mp = micropython_spin(args.window, log)
     counting.join()
     pico_compare.print_tables(pico, mp, m3.get("firmware"))
-    print("\n(command: python -m desktop.bench.pico --window %g; %.0f s; host load average %.1f: the wall"
-          " figures scale with it, the cycle figures do not)" % (args.window, time.time() - t0, os.getloadavg()[0]))
+    print("\n(command: python -m desktop.bench.pico --window %g%s; %.0f s; host load average %.1f: the wall"
+          " figures scale with it, the cycle figures do not)" % (args.window, " --frozen" if args.frozen else "",
+                                                               time.time() - t0, os.getloadavg()[0]))
     return 0
 
 

@@ -1,6 +1,7 @@
 """The lowest clock at which the emulated Pico keeps up, and the instrument's power from it.
 
     python -m desktop.bench.power [--window 6] [--low 16]    # about 10-20 wall min on 2 cores
+    python -m desktop.bench.power --frozen ...                # the image with the firmware frozen in
 
 What: the firmware as `fluxcal deploy` puts it on the emulated Pico (pico_handheld.PicoHandheld,
 idle jumped), started from the REPL after `machine.freq(F)`. rp2040js derives clk_sys from the
@@ -76,14 +77,14 @@ def _counted(window, rate):
     return expected - (last["frames"] - first["frames"])
 
 
-def run_at(flash, mhz, window_s, log):
+def run_at(flash, mhz, window_s, log, frozen=False):
     """One session at mhz on a copy of the deployed flash: its figures."""
     from desktop.firmware.deploy import firmware_version
     from desktop.link import open_device, wait_for_version
 
     with tempfile.TemporaryDirectory(prefix="fluxcal-power-") as tmp:
         shutil.copy(flash, os.path.join(tmp, "pico.flash"))
-        with PicoHandheld(tmp, idle="jump") as hh:
+        with PicoHandheld(tmp, idle="jump", frozen=frozen) as hh:
             wait_for_version(hh.port, firmware_version("micropython"), wait_s=300.0)
             dev = open_device(hh.port, timeout=120)
             dev = _start_at(hh, dev, mhz * 1000000)
@@ -109,12 +110,12 @@ def run_at(flash, mhz, window_s, log):
     return out
 
 
-def deployed_flash(folder, log):
+def deployed_flash(folder, log, frozen=False):
     """The firmware deployed and configured (auto-finish off) on an emulated Pico: its flash file."""
     from desktop.firmware.deploy import MicroPythonDeploy, firmware_version
     from desktop.link import open_device, wait_for_version
 
-    with PicoHandheld(folder, idle="jump") as hh:
+    with PicoHandheld(folder, idle="jump", frozen=frozen) as hh:
         MicroPythonDeploy(hh.port, compiled=True).run()
         wait_for_version(hh.port, firmware_version("micropython"), wait_s=300.0)
         dev = open_device(hh.port, timeout=120)
@@ -125,10 +126,10 @@ def deployed_flash(folder, log):
     return flash
 
 
-def bisect(flash, low, window_s, resolution, log):
+def bisect(flash, low, window_s, resolution, log, frozen=False):
     """The lowest whole-MHz PLL clock that keeps up, to `resolution` MHz; the floor the 125 MHz
     run's load sets (below load x 125 MHz the work outgrows the cycles: not run); every run."""
-    runs = {TOP_MHZ: run_at(flash, TOP_MHZ, window_s, log)}
+    runs = {TOP_MHZ: run_at(flash, TOP_MHZ, window_s, log, frozen)}
     if not runs[TOP_MHZ]["keeps_up"]:
         return None, low, runs
     busiest = max(runs[TOP_MHZ][n]["load"] for n in ("calibrating", "survey"))
@@ -137,7 +138,7 @@ def bisect(flash, low, window_s, resolution, log):
     lo, hi = 0, len(clocks) - 1       # clocks[hi] keeps up; nothing below clocks[lo] is known to
     while clocks[hi] - clocks[lo] > resolution:
         mid = (lo + hi) // 2
-        got = run_at(flash, clocks[mid], window_s, log)
+        got = run_at(flash, clocks[mid], window_s, log, frozen)
         runs[clocks[mid]] = got
         if got["keeps_up"]:
             hi = mid
@@ -182,17 +183,19 @@ def main(argv=None):
                    help="emulated seconds calibrating and in survey at each clock (default 6: one provisional solve)")
     p.add_argument("--low", type=int, default=16, help="lowest clock tried, MHz (default 16)")
     p.add_argument("--resolution", type=int, default=4, help="bisection stops this close, MHz (default 4)")
+    p.add_argument("--frozen", action="store_true",
+                   help="the image with the firmware frozen in (make pico-frozen) instead of .mpy files")
     args = p.parse_args(argv)
     t0 = time.time()
 
     def log(msg):
         print("[%4.0f s] %s" % (time.time() - t0, msg), file=sys.stderr, flush=True)
     with tempfile.TemporaryDirectory(prefix="fluxcal-power-base-") as base:
-        flash = deployed_flash(base, log)
-        lowest, floor, runs = bisect(flash, args.low, args.window, args.resolution, log)
+        flash = deployed_flash(base, log, args.frozen)
+        lowest, floor, runs = bisect(flash, args.low, args.window, args.resolution, log, args.frozen)
     print_table(lowest, floor, runs, args.window)
-    print("\n(command: python -m desktop.bench.power --window %g --low %d --resolution %d; %.0f s)" % (
-        args.window, args.low, args.resolution, time.time() - t0))
+    print("\n(command: python -m desktop.bench.power --window %g --low %d --resolution %d%s; %.0f s)" % (
+        args.window, args.low, args.resolution, " --frozen" if args.frozen else "", time.time() - t0))
     return 0
 
 

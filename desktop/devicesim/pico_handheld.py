@@ -23,7 +23,7 @@ from desktop.devicesim.virtual_handheld import ACTIONS, Hands, live_world
 class PicoHandheld:
     runtime = "micropython"
 
-    def __init__(self, flash_dir, sensor="mag649", seed=0, motion_seed=1, idle="paced", log=None):
+    def __init__(self, flash_dir, sensor="mag649", seed=0, motion_seed=1, idle="paced", log=None, frozen=False):
         self.world, self.operator = live_world(sensor, seed, motion_seed)
         self.scenario = self.world.scenario
         self.hands = Hands(self.world, self.operator)
@@ -31,7 +31,8 @@ class PicoHandheld:
         self.flash_file = os.path.join(os.path.abspath(flash_dir), "pico.flash")
         self.fresh = not os.path.exists(self.flash_file)   # a new board: nothing deployed yet
         # no pin held high by the runner: the world drives the button and DRDY
-        self.board = PicoBoard(self.flash_file, idle=idle, high=(), world=self.pins, log=log)
+        self.board = PicoBoard(self.flash_file, idle=idle, high=(), world=self.pins, log=log,
+                               frozen=frozen)   # frozen: the image with the firmware frozen in
         self.pacer = None
 
     def __enter__(self):
