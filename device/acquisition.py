@@ -178,11 +178,13 @@ class Acquisition:
         return self.state[DISCARDED]
 
     def status(self):
-        """Its part of `status`: the counters of the DRDY path and the ring."""
+        """Its part of `status`: the counters of the DRDY path and the ring, which handler and reader run."""
         st = self.state
         return {"frames": st[FRAMES], "overflow": st[OVERFLOW], "missed": st[MISSED], "badsync": st[BADSYNC],
                 "discarded": st[DISCARDED], "gaps": self.gaps, "samples": self.samples, "drdy": self.handler,
-                "drdy_counter": self.counter}
+                "drdy_counter": self.counter,
+                # the ring's reader: "native" where drdy.Drain replaced poll (drdy.mpy), else "python"
+                "reader": "native" if type(self.poll) is _NativeDrain else "python"}
 
     # ****** main loop, polled DRDY only ******
     def account_gap(self, frames):

@@ -389,8 +389,8 @@ class Output:
         """Its part of `status`: the stream, the die temperature, the screen's counts, the log."""
         out = {"stream": self.stream, "temp": json_number(self.temp_c, 2), "temp_warn": self.cal_temp_warn,
                "spikes": self.screen.spikes, "clipped": self.screen.clipped,
-               # the spike screen's push: "native" (screenc.mpy) or "python"
-               "screen": self.screen.path,
+               # the spike screen's push and this sample: "native" (screenc.mpy; drdy.Sample) or "python"
+               "screen": self.screen.path, "sample": "native" if type(self.sample) is _NativeSample else "python",
                # the taus (us per axis) the samples are de-lagged with, None: not de-lagged
                "delag_us": self.delag.taus_us if self._delag_on else None, "delag": self.delag.path,
                # |h_c| of the calibration in force: "native" (fitsums.mpy) or "python"; None: none

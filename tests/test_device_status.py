@@ -12,7 +12,8 @@ from tests.device_session import ask, boot
 ALWAYS = {"v", "ok", "cmd", "state", "fault", "fault_code", "safe_mode", "errors", "last_error", "calibrated",
           "cal_source", "cal_problem", "config_problems", "stream", "uptime_ms", "temp", "temp_warn", "cal_kind",
           "tempco_range", "last_cal", "frames", "overflow", "missed", "badsync", "discarded", "gaps", "samples",
-          "spikes", "clipped", "screen", "delag_us", "delag", "sums", "magnitude", "drdy", "drdy_counter", "unfinished_boots",
+          "spikes", "clipped", "screen", "delag_us", "delag", "sums", "magnitude", "drdy", "drdy_counter", "reader", "sample",
+          "unfinished_boots",
           "watchdog_reset", "watchdog_ms"}
 # the ADC's run-time health exists once the chips answered at boot
 HEALTH = {"adc_faults"}
@@ -32,6 +33,7 @@ def test_survey_reply(tmp_path):
         assert s["drdy_counter"] is None  # ... nor a counter of DRDY (rp2's PIO)
         assert s["screen"] == "python"   # ... nor the spike screen's push
         assert s["delag"] == "python"    # ... nor the de-lag's
+        assert (s["reader"], s["sample"]) == ("python", "python")   # ... nor the ring's reader, the output's sample
         assert s["magnitude"] is None    # no calibration in force: no |h_c|
         assert s["samples"] > 0 and s["frames"] > s["samples"]   # decimated: fewer samples than frames
     finally:
@@ -75,5 +77,6 @@ def test_a_board_adds_its_free_heap(tmp_path):
         assert set(s) == ALWAYS | HEALTH | {"mem_free"}
         assert isinstance(s["mem_free"], int)
         assert s["sums"] == "python"     # the simulated board's lib/ holds no fitsums.mpy
+        assert (s["drdy"], s["reader"], s["sample"]) == ("python",) * 3     # ... nor drdy.mpy
     finally:
         dev.close()

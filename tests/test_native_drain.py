@@ -10,7 +10,8 @@ clipped samples and gaps of one block (bridged) and of five, the raw stream, a c
 progress (a stand-in session: its samples, clipped count and breaks), no stream. Every event's
 text, the session's samples, the reader's and the screen's counters must be the same on both
 paths, and as CPython's pure-Python run prints them (the Pico runs the first 120 samples of each,
-against CPython's run of those); the native path must be the one taken where the module loads.
+against CPython's run of those); the native path must be the one taken where the module loads,
+and status's `reader` and `sample` must say which ran.
 CircuitPython loads no MicroPython .mpy and keeps the Python.
 """
 

@@ -7,7 +7,8 @@
 # corrected stream de-lagged, the same with flipped bits, clipped samples and gaps of one and more
 # blocks, the raw stream, a calibration in progress (a stand-in session), no stream. Prints each
 # scenario's outcome as a JSON line (the events' texts, the session's samples, the counters), then
-# one line: the path taken and how many scenarios the two paths differed in.
+# one line: the path taken (status's `reader` and `sample` must say it) and how many scenarios the
+# two paths differed in.
 import json
 import sys
 
@@ -74,7 +75,11 @@ def run(case, scenario, native):
             polls += 1
         polls += 1
     sc = o.screen
-    path = "native" if "poll" in acq.__dict__ and "sample" in o.__dict__ else "python"
+    # what ran (C where the instance's attribute hides the method) and what status says ran: one
+    # word where they agree, both pairs where status tells another path than the one taken
+    ran = ["native" if "poll" in acq.__dict__ else "python", "native" if "sample" in o.__dict__ else "python"]
+    said = [acq.status()["reader"], o.status()["sample"]]
+    path = ran[0] if ran == said and ran[0] == ran[1] else "ran %s, status %s" % (ran, said)
     # a list, not a dict: its order is the same on every interpreter
     return path, [texts, None if s is None else [s.got, s.clipped, s.clip_axis, s.breaks],
                   [acq.samples, acq.gaps, acq.last_block, acq.available()],
