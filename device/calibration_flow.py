@@ -168,7 +168,7 @@ class CalibrationFlow:
     def finish(self):
         s = self._end()
         if self.service is not None:
-            s.between = self._between
+            s.between, s.service = self._between, self.service
         gc.collect()
         try:
             cal, result, held = self._conclude(s)

@@ -13,11 +13,10 @@ partial rotation, auto-finishing at quick_min_coverage; auto (the button's
 short press) decides at the end: quick when a calibration is in force and the
 coverage stayed under min_coverage, else full.
 
-The fit runs on the full boxcar sums (units: code/window; exact integers:
-EllipsoidFit.add costs the same ~25 us on the unix port for 17- to 24-bit
-inputs, so shifting them would buy nothing); the accepted calibration is
-rescaled to ADC codes so it survives a change of window. Which samples go in is
-gates.py's; whether the result may be used, acceptance.py's (set-cal uses it too).
+The fit runs on the full boxcar sums (code/window; exact integers, whose add costs the
+same for 17- to 24-bit inputs); the accepted calibration is rescaled to ADC codes so it
+survives a change of window. Which samples go in is gates.py's; whether the result may
+be used, acceptance.py's (set-cal uses it too).
 """
 
 import math
@@ -32,10 +31,9 @@ from shared.fit import EllipsoidFit, FitError
 from shared.response import check_response
 
 _MIN_PROVISIONAL = 60
-# Gauss-Newton steps of a provisional solve. It only sets the disturbance gate and
-# says when coverage is enough; from the algebraic fit one step lands within 5e-5 nT
-# of the converged fit on a 40 % cap (identical with full coverage), and each further
-# step costs ~4M instructions on a Cortex-M (docs/firmware.md). The final solve converges.
+# Gauss-Newton steps of a provisional solve, which only sets the disturbance gate and says when
+# coverage is enough: from the algebraic fit one step lands within 5e-5 nT of the converged fit on a
+# 40 % cap, each further step ~4M instructions on a Cortex-M (docs/firmware.md). The final solve converges.
 _PROVISIONAL_ITER = 1
 _MAX_RHO = 0.999     # widening at most sqrt(1999) ~ 45x
 CLIP_FRACTION = 200   # more than 1 in 200 samples clipped refuses the calibration
@@ -76,6 +74,7 @@ class Session:
         self._final = None
         self.search_solves = 0      # the tau estimate's solves at the finish
         self.between = None         # called after each of them (calibration_flow.py: the main loop's service)
+        self.service = None         # the main loop's service alone, after the finish's other long steps
         # bound once: the per-sample call allocates nothing
         self.sample = g.sample
         self.break_chain = g.break_chain
@@ -270,6 +269,7 @@ class Session:
         try:
             self._final = None if self._lagfit is None else self._lagfit.estimate(self)
             cal = self._solve(final=True)
+            self._serve()
             d = cal.diagnostics
             if d.get("mode") == RESHAPED or (d.get("mode") == QUICK and d.get("gains", 1) > 1):
                 # a quick one chose a bigger model by likelihood ratios, which correlated
@@ -280,9 +280,11 @@ class Session:
                 if rho is not None and rho > 2.0 / math.sqrt(pairs):
                     rho = min(rho, _MAX_RHO)
                     cal = self._solve(final=True, independent=(1.0 - rho) / (1.0 + rho))
+                    self._serve()
         except FitError as e:
             return self._fail_fast(e.reason, str(e))
         self._widen(cal)
+        self._serve()
         problem = self.check(cal)
         if not problem and self._lagfit is not None:
             problem = self._lagfit.not_first_order(self.response, cal)
@@ -297,6 +299,10 @@ class Session:
         if self.temp_n:
             code_cal.meta["temperature_c"] = round(self.temp_sum / self.temp_n, 2)
         return code_cal, None, None
+
+    def _serve(self):   # the ring drained between the finish's long steps (docs/firmware.md, "The finish")
+        if self.service is not None:
+            self.service()
 
     def _response_left(self, cal):
         """What residuals that follow each other say after de-lagging ("" when the samples were

@@ -35,7 +35,9 @@ def spiral(n=4000, turns=12):
     return u, t / np.linalg.norm(t, axis=1)[:, None]
 
 
-def run_session(t0, step_scale):
+def run_session(t0, step_scale, calls=None):
+    """The session's samples and its finish; calls: a list the finish's `between` (after each of
+    the tau search's solves) and `service` (after its other long steps) are recorded in."""
     config = import_device("config")
     session = import_device("session")
     cfg = config.defaults()
@@ -56,6 +58,9 @@ def run_session(t0, step_scale):
         x = np.rint(v - t0 * e)
         dl.ex, dl.ey, dl.ez = (int(c) for c in e)
         s.sample(int(x[0]), int(x[1]), int(x[2]))
+    if calls is not None:        # as calibration_flow.finish wires them to the main loop's service
+        s.between = lambda: calls.append(("between", s.search_solves))
+        s.service = lambda: calls.append(("service", s.search_solves))
     return s, s.finish()
 
 
@@ -83,3 +88,18 @@ def test_no_step_to_see_keeps_the_configured_tau_and_says_so():
     # polled) the sinc3's and the 2-conversion boxcar's 0.5 ms each in quadrature at 1000 SPS
     assert r["source"] == "given" and r["tau_s"] == [0.031839] * 3, r
     assert r["estimate"].startswith("not identified: the residual does not rise"), r
+
+
+def test_the_finish_drains_the_ring_between_its_long_steps():
+    """A Pico's DRDY ring holds 1.28 s and a finish can take longer (docs/firmware.md, "The
+    finish"): the main loop's service runs after each tau-search solve, after the final solve and
+    after the residual statistics, and changes nothing the session computes."""
+    calls = []
+    s, (cal, reason, msg) = run_session(-1.6, 2e-3, calls)
+    assert cal is not None, (reason, msg)
+    n = s.search_solves
+    assert n >= 5, n
+    assert calls == [("between", k) for k in range(1, n + 1)] + [("service", n)] * 2, calls
+    _, (plain, _, _) = run_session(-1.6, 2e-3)
+    assert (cal.matrix, cal.offset, cal.diagnostics, cal.response) == \
+        (plain.matrix, plain.offset, plain.diagnostics, plain.response)
