@@ -155,11 +155,12 @@ class App:
         self.led.update()
 
     def _service(self):
-        """The DRDY ring drained and the watchdog fed from inside a long step (the finish's tau
-        search, calibration_flow.py): its blocks would overflow the ring, its seconds the watchdog."""
+        """The DRDY ring drained and the watchdog fed from inside a long step (the finish's solves
+        and statistics, calibration_flow.py): its blocks would overflow the ring, its seconds the
+        watchdog. All of the ring, not a pass's share: the next long step follows at once."""
         sup = self.supervisor
         if not sup.fault or sup.verifying:
-            n = self.acq.poll(self._sample_cb, self._drain, self._gap_cb)
+            n = self.acq.poll(self._sample_cb, self.acq.ring_frames, self._gap_cb)
             if n:
                 self.board.busy(_SAMPLE, n)
         self.board.watchdog_feed()

@@ -97,6 +97,24 @@ def test_ring_overflow_is_counted_and_blocks_discarded(tmp_path):
     dev.close()
 
 
+def test_the_service_inside_a_long_step_drains_the_whole_ring(tmp_path):
+    """App._service (the finish's steps call it, docs/firmware.md "The finish") empties the ring,
+    not one pass's share: a finish's next step follows at once and would overflow what is left."""
+    w, dev = boot(tmp_path)
+    acq, board = dev.app.acq, dev.board
+    dev.run_until(0.5)
+    dev.app.step()                            # the ring is empty
+    w.until = 10.0
+    held = 100                                # the main loop in a long step: only the ISR runs
+    for _ in range(held * acq.decim):
+        board.idle()
+    n_before = acq.samples
+    assert held > dev.app._drain
+    dev.app._service()
+    assert acq.samples - n_before == held and acq.state[acquisition.OVERFLOW] == 0
+    dev.close()
+
+
 def test_corrupt_status_words_are_dropped(tmp_path):
     w, dev = boot(tmp_path, fault=("status-corrupt", None))
     dev.run_until(3.0)
