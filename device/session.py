@@ -178,12 +178,13 @@ class Session:
             self._lagfit.attach(self, delag)
 
     def _solve(self, max_iter=60, final=False, independent=1.0):
-        # provisional solves of an auto session are full ones: it becomes quick only at the end
+        # provisional solves of an auto session are full ones: it becomes quick only at the end. A final
+        # quick one drains the ring between its stages (self.service: the finish takes longer than the ring holds)
         quick = self.kind == QUICK or (final and self.quick())
         # finally the samples at the estimated tau (lagfit.py), in 1/u sum units
         fit, u = self._final if final and self._final is not None else (self.fit, 1)
         cal = fit.solve(field=None, prior=self.prior if quick else None, scale=[k / u for k in self.k],
-                        max_iter=max_iter, refuse_worse=final, independent=independent)
+                        max_iter=max_iter, refuse_worse=final, independent=independent, between=self.service if final else None)
         return cal if u == 1 else cal.scaled_input(1.0 / u)
 
     def tick(self, now_ms, diff):
@@ -329,10 +330,9 @@ class Session:
             "capture estimates per-axis taus"
 
     def _widen(self, cal):
-        # the residuals' correlation over the whole session, from their batch means under this
-        # fit (residuals.py), widens the core's predicted error (narrows it where their sums
-        # cancel, as a de-lag term's differences do): shared.honest, the
-        # function `fluxcal fit` and `report` call on a file's residuals
+        # the residuals' correlation over the whole session, from their batch means under this fit
+        # (residuals.py), widens the core's predicted error (narrows it where their sums cancel, as a
+        # de-lag term's differences do): shared.honest, which `fluxcal fit` and `report` call too
         d = cal.diagnostics
         rho, pairs, rate = self.residual_rho(cal)
         if rho is not None:

@@ -240,7 +240,7 @@ class EllipsoidFit:
 
     def solve(self, field=None, prior=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA,
               min_samples=MIN_SAMPLES, max_iter=MAX_ITER, max_error=None, quick=True, refuse_worse=True,
-              independent=1.0):
+              independent=1.0, between=None):
         """Fit h_c = M (h - b) with |h_c| constant; return a Calibration.
 
         field: the known local field in the output unit (nT), or None to fit it.
@@ -252,6 +252,7 @@ class EllipsoidFit:
             expected to beat the prior (a device's provisional estimate).
         independent: for a quick re-calibration, the share of samples that count as
             independent when the residuals are correlated (shared.quick.solve).
+        between: None, or called between a quick re-calibration's stages (shared.quick.solve).
         num: the number type of the float work (float on the device;
             numpy.float32 or a rounding class to emulate narrow floats).
         scale: nominal output unit per input unit, a number or 3 numbers
@@ -273,5 +274,5 @@ class EllipsoidFit:
         if prior is not None and quick:
             from shared import quick as quick_fit
             return quick_fit.solve(self._s, prior, field, num, scale, shape_sigma, min_samples, max_iter, max_error,
-                                   refuse_worse, quick_fit.GAIN_MODELS, independent)
+                                   refuse_worse, quick_fit.GAIN_MODELS, independent, between)
         return solver.solve(self._s, field, prior, num, scale, shape_sigma, min_samples, max_iter, max_error)

@@ -100,12 +100,15 @@ def _rms(pb, rss, field):
 
 
 def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA, min_samples=MIN_SAMPLES,
-          max_iter=MAX_ITER, max_error=None, refuse_worse=True, models=GAIN_MODELS, independent=1.0):
+          max_iter=MAX_ITER, max_error=None, refuse_worse=True, models=GAIN_MODELS, independent=1.0,
+          between=None):
     """Quick re-calibration from the power sums; see the module docstring.
 
     independent: the share of the samples that count as independent, (1 - rho) / (1 + rho)
     for residuals with lag-1 correlation rho (device/session.py measures it): the
     likelihood ratios scale with it, so correlated residuals do not pass for a moved shape.
+    between: None, or called between the stages (each gain model, the shape test): a device
+    drains its DRDY ring there, as the whole takes longer than the ring holds on a Pico.
     """
     if field is None:
         field = prior.field
@@ -132,6 +135,8 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA
     gains_lr = 0.0
     for groups in models[1:]:
         more = _GainsAndOffsets(groups)
+        if between is not None:
+            between()
         st2, h2, it2, rej2 = iterate(pb, pr, st, num, max_iter, more)
         ratio = log_ratio(st.rss, st2.rss)
         lr = n * independent * ratio if ratio is not None else 0.0
@@ -158,6 +163,8 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA
     try:
         if provisional:
             raise FitError(NOT_BETTER, "no shape test for a provisional estimate")
+        if between is not None:
+            between()
         full, full_st = solve_problem(problem, field, prior, num, shape_sigma, max_iter, float("inf"),
                                       MIN_OBSERVABILITY)
         ratio = log_ratio(rss, full_st.rss)

@@ -35,21 +35,22 @@ def spiral(n=4000, turns=12):
     return u, t / np.linalg.norm(t, axis=1)[:, None]
 
 
-def run_session(t0, step_scale, calls=None):
+def run_session(t0, step_scale, calls=None, prior=None, drift=0.0):
     """The session's samples and its finish; calls: a list the finish's `between` (after each of
-    the tau search's solves) and `service` (after its other long steps) are recorded in."""
+    the tau search's solves) and `service` (after its other long steps) are recorded in; prior: a
+    calibration in force, for a quick re-calibration of samples whose offsets drifted by `drift`."""
     config = import_device("config")
     session = import_device("session")
     cfg = config.defaults()
     cfg["sensor_bandwidth_hz"] = 5.0
     cfg["cell_cap"] = 40
-    s = session.Session(cfg, (SCALE,) * 3, 2, 10)
+    s = session.Session(cfg, (SCALE,) * 3, 2, 10, prior, kind="auto" if prior is None else "quick")
     dl = FakeDelag()
     s.attach(dl)
     u, tan = spiral()
     rng = np.random.default_rng(7)
     m = np.array([[1.004, 0.01, 0.0], [0.0, 0.997, 0.0], [-0.015, 0.0, 1.001]])
-    off = np.array([30000.0, 20000.0, -10000.0])
+    off = np.array([30000.0, 20000.0, -10000.0]) + drift
     for k in range(len(u)):
         v = m @ (FIELD_SUMS * u[k]) + off + rng.normal(0.0, 10.0, 3)   # ~0.07 nT of noise
         # the de-lag term of a 10 % tau step at a turn rate that varies between 0.5 and 1.5
@@ -103,3 +104,15 @@ def test_the_finish_drains_the_ring_between_its_long_steps():
     _, (plain, _, _) = run_session(-1.6, 2e-3)
     assert (cal.matrix, cal.offset, cal.diagnostics, cal.response) == \
         (plain.matrix, plain.offset, plain.diagnostics, plain.response)
+
+
+def test_a_quick_finish_drains_the_ring_inside_its_solve():
+    """A quick re-calibration's final solve (gain models and the shape test: ~1.1 s of a Pico's
+    1.28-s ring on its own) calls the service between its stages (shared/quick.py between)."""
+    _, (first, reason, msg) = run_session(0.0, 0.0)
+    assert first is not None, (reason, msg)
+    calls = []
+    s, (cal, reason, msg) = run_session(0.0, 0.0, calls, first, 700.0)
+    assert cal is not None and cal.meta["kind"] in ("quick", "reshaped"), (reason, msg)
+    # two gain models after the first, the shape test, then the finish's own (after the solve, the statistics)
+    assert [c[0] for c in calls] == ["service"] * 5, calls
