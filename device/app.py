@@ -21,6 +21,19 @@ _HOUSE_MS whatever the rates: the button, serial and LED work of a pass (~35k
 instructions on a Cortex-M, docs/firmware.md) is paid 50 times a second, not
 once per sample.
 
+Frames: where MicroPython has no Python stack (the rp2 port), a call whose state (locals and
+value stack, a word each; two more per active try) passes 11 words takes its frame from the heap
+(py/objfun.c VM_MAX_STATE_ON_STACK), a gc_alloc of several blocks and a gc_free a call; gc_alloc
+searches first fit from a hint that only one-block allocations move up, so on this firmware's
+fragmented heap the search is the cost. step() must stay within 11 words: at 14 (b838a2e,
+reverted) its frame lived on the heap through the whole pass, the samples' allocations made
+inside it, and gc_alloc took 1.2 -> 13.9 M cycles a second in survey on the emulated Pico, the
+firmware 17.2 -> 23.6 % calibrating and 8.4 -> 18.4 % in survey (three unused locals added to
+this step() do the same). tests/test_frames.py holds step() and what it calls every pass to
+11 words where they are within it today; those over it (Protocol.poll, Led.update,
+Health.check, hal_micropython's serial_read) cost about 1 k cycles each a pass in gc_alloc
+(docs/benchmarks.md: splitting them read 0-0.5 % less, a method more of heap each).
+
 Nothing stops the loop (docs/reliability.md): an exception in a pass is
 counted, reported and survived (bootguard.py); ADC faults after boot are named
 and re-probed until they clear (health.py); samples that cannot be the field
