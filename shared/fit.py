@@ -252,7 +252,8 @@ class EllipsoidFit:
             expected to beat the prior (a device's provisional estimate).
         independent: for a quick re-calibration, the share of samples that count as
             independent when the residuals are correlated (shared.quick.solve).
-        between: None, or called between a quick re-calibration's stages (shared.quick.solve).
+        between: None, or called between the solve's steps (its iterations; a quick
+            re-calibration's stages too): a device drains its DRDY ring there.
         num: the number type of the float work (float on the device;
             numpy.float32 or a rounding class to emulate narrow floats).
         scale: nominal output unit per input unit, a number or 3 numbers
@@ -275,4 +276,5 @@ class EllipsoidFit:
             from shared import quick as quick_fit
             return quick_fit.solve(self._s, prior, field, num, scale, shape_sigma, min_samples, max_iter, max_error,
                                    refuse_worse, quick_fit.GAIN_MODELS, independent, between)
-        return solver.solve(self._s, field, prior, num, scale, shape_sigma, min_samples, max_iter, max_error)
+        return solver.solve(self._s, field, prior, num, scale, shape_sigma, min_samples, max_iter, max_error,
+                            between=between)

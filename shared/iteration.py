@@ -106,7 +106,7 @@ def in_basis(h, g, basis):
     return hr, gr
 
 
-def iterate(pb, pr, st, num, max_iter, basis=None):
+def iterate(pb, pr, st, num, max_iter, basis=None, between=None):
     """Levenberg-Marquardt on objective (2) from the state st.
 
     basis: None to move all nine parameters, or an object whose
@@ -114,7 +114,8 @@ def iterate(pb, pr, st, num, max_iter, basis=None):
     and apply(st, step) turns a step in those coordinates into the integer
     changes (da, df) of the state. Returns (state, normal matrix or None, iterations,
     rejected steps); the normal matrix is the last one formed, returned where
-    it is valid at the state (see below), in the basis' coordinates.
+    it is valid at the state (see below), in the basis' coordinates. between: None, or called
+    before each iteration after the first (a device drains its DRDY ring: device/session.py).
     """
     n = pb.n
     mu = 1e-3
@@ -123,6 +124,8 @@ def iterate(pb, pr, st, num, max_iter, basis=None):
     h = None
     moved = small = False
     for iterations in range(1, max_iter + 1):
+        if between is not None and iterations > 1:
+            between()
         h, g = system(pb, st)
         if not linalg.all_finite(g):
             raise FitError(NON_FINITE, "gradient is not finite")

@@ -107,8 +107,8 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA
     independent: the share of the samples that count as independent, (1 - rho) / (1 + rho)
     for residuals with lag-1 correlation rho (device/session.py measures it): the
     likelihood ratios scale with it, so correlated residuals do not pass for a moved shape.
-    between: None, or called between the stages (each gain model, the shape test): a device
-    drains its DRDY ring there, as the whole takes longer than the ring holds on a Pico.
+    between: None, or called between the stages (each gain model, the shape test) and their
+    iterations: a device drains its DRDY ring there, as the whole outlasts the ring on a Pico.
     """
     if field is None:
         field = prior.field
@@ -131,13 +131,13 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA
     provisional = max_iter <= PROVISIONAL_ITER
     # one common gain first; a gain per ADC, then per axis, only where the data ask for them
     basis = _GainsAndOffsets(models[0])
-    st, h, iterations, rejected = iterate(pb, pr, stale, num, max_iter, basis)
+    st, h, iterations, rejected = iterate(pb, pr, stale, num, max_iter, basis, between)
     gains_lr = 0.0
     for groups in models[1:]:
         more = _GainsAndOffsets(groups)
         if between is not None:
             between()
-        st2, h2, it2, rej2 = iterate(pb, pr, st, num, max_iter, more)
+        st2, h2, it2, rej2 = iterate(pb, pr, st, num, max_iter, more, between)
         ratio = log_ratio(st.rss, st2.rss)
         lr = n * independent * ratio if ratio is not None else 0.0
         iterations += it2
@@ -166,7 +166,7 @@ def solve(sums, prior, field=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA
         if between is not None:
             between()
         full, full_st = solve_problem(problem, field, prior, num, shape_sigma, max_iter, float("inf"),
-                                      MIN_OBSERVABILITY)
+                                      MIN_OBSERVABILITY, between)
         ratio = log_ratio(rss, full_st.rss)
         lr = n * independent * ratio if ratio is not None else 0.0
     except FitError:

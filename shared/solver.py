@@ -56,36 +56,39 @@ def setup(sums, field, num, scale, min_samples):
 
 
 def solve(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA,
-          min_samples=MIN_SAMPLES, max_iter=MAX_ITER, max_error=None, min_observability=MIN_OBSERVABILITY):
+          min_samples=MIN_SAMPLES, max_iter=MAX_ITER, max_error=None, min_observability=MIN_OBSERVABILITY,
+          between=None):
     """See EllipsoidFit.solve (all nine parameters; a prior is a weak one); a Calibration or FitError."""
     return solve_state(sums, field, prior, num, scale, shape_sigma, min_samples, max_iter, max_error,
-                       min_observability)[0]
+                       min_observability, between)[0]
 
 
 def solve_state(sums, field=None, prior=None, num=float, scale=1.0, shape_sigma=SHAPE_SIGMA,
-                min_samples=MIN_SAMPLES, max_iter=MAX_ITER, max_error=None, min_observability=MIN_OBSERVABILITY):
+                min_samples=MIN_SAMPLES, max_iter=MAX_ITER, max_error=None, min_observability=MIN_OBSERVABILITY,
+                between=None):
     """solve(), also returning the converged state (its exact RSS: shared.quick's shape test)."""
     return solve_problem(setup(sums, field, num, scale, min_samples), field, prior, num, shape_sigma, max_iter,
-                         max_error, min_observability)
+                         max_error, min_observability, between)
 
 
-def solve_problem(problem, field, prior, num, shape_sigma, max_iter, max_error, min_observability):
+def solve_problem(problem, field, prior, num, shape_sigma, max_iter, max_error, min_observability, between=None):
     """solve_state() on the problem setup() returned: shared.quick's shape test solves the problem
-    of its own fit, one copy of the re-centred sums on a board's heap where two ran it out."""
+    of its own fit, one copy of the re-centred sums on a board's heap where two ran it out.
+    between: None, or called after the initial guess and between the iterations (EllipsoidFit.solve)."""
     pb, k_nom, kr, observability = problem
     if prior is None and observability < min_observability:
         raise FitError(DEGENERATE_COVERAGE, "samples span no volume (observability %.2g): rotate about more than one axis" % observability)
 
     pr = make_prior(pb, prior, field, num, kr, k_nom, shape_sigma)
-    st, h, iterations, rejected = iterate(pb, pr, _start(pb, pr), num, max_iter)
+    st, h, iterations, rejected = iterate(pb, pr, _start(pb, pr, between), num, max_iter, None, between)
     cal = finish(pb, pr, st, field, num, kr, k_nom, observability, iterations, max_error, h)
     cal.diagnostics["rejected"] = rejected
     return cal, st
 
 
-def _start(pb, pr):
+def _start(pb, pr, between=None):
     """The initial guess with the lower objective (2), as a State (in a function of its own so that
-    the guess not taken is garbage before the iteration's states are built)."""
+    the guess not taken is garbage before the iteration's states are built); between() after it."""
     best = None
     for a, f in initial_guesses(pb):
         if not linalg.all_finite(a) or not linalg.all_finite(f):
@@ -95,4 +98,7 @@ def _start(pb, pr):
             best = st
     if best is None:
         raise FitError(NOT_ELLIPSOID, "no ellipsoid through the samples")
+    st = None
+    if between is not None:
+        between()
     return best

@@ -100,7 +100,10 @@ def test_the_finish_drains_the_ring_between_its_long_steps():
     assert cal is not None, (reason, msg)
     n = s.search_solves
     assert n >= 5, n
-    assert calls == [("between", k) for k in range(1, n + 1)] + [("service", n)] * 2, calls
+    # the search's solves, then the final solve's steps (shared: tests/test_shared_between.py) and
+    # after it, after the residual statistics
+    assert calls[:n] == [("between", k) for k in range(1, n + 1)], calls
+    assert len(calls) >= n + 3 and calls[n:] == [("service", n)] * (len(calls) - n), calls
     _, (plain, _, _) = run_session(-1.6, 2e-3)
     assert (cal.matrix, cal.offset, cal.diagnostics, cal.response) == \
         (plain.matrix, plain.offset, plain.diagnostics, plain.response)
@@ -114,5 +117,6 @@ def test_a_quick_finish_drains_the_ring_inside_its_solve():
     calls = []
     s, (cal, reason, msg) = run_session(0.0, 0.0, calls, first, 700.0)
     assert cal is not None and cal.meta["kind"] in ("quick", "reshaped"), (reason, msg)
-    # two gain models after the first, the shape test, then the finish's own (after the solve, the statistics)
-    assert [c[0] for c in calls] == ["service"] * 5, calls
+    # between the gain models and before the shape test, their iterations (tests/test_shared_between.py),
+    # then the finish's own (after the solve, after the statistics)
+    assert len(calls) >= 5 and [c[0] for c in calls] == ["service"] * len(calls), calls

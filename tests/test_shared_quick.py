@@ -45,25 +45,6 @@ def test_quick_recalibration_finds_the_drift_from_a_10_percent_cap():
     assert sphere_error(q, sphere) < sphere_error(fit(cap, old, quick=False), sphere)
 
 
-def test_between_runs_between_the_stages_and_changes_nothing():
-    """solve(between=f) calls f before each gain model after the first and before the shape test
-    (a device drains its DRDY ring there: the whole outlasts a Pico's ring), and the calibration
-    is the one without it, to the bit."""
-    cap, old, _, _ = cap_after_drift(0)
-    prior = old.scaled_input(1.0 / LSB_NT)
-    sums = accumulate(cap, LSB_NT)
-    calls = []
-    got = sums.solve(field=FIELD, prior=prior, scale=LSB_NT, max_error=float("inf"),
-                     between=lambda: calls.append(len(calls)))
-    plain = sums.solve(field=FIELD, prior=prior, scale=LSB_NT, max_error=float("inf"))
-    assert calls == [0, 1, 2]        # GAIN_MODELS' two more models, then the shape test
-    assert (got.matrix, got.offset, got.diagnostics) == (plain.matrix, plain.offset, plain.diagnostics)
-    # a provisional estimate (no shape test) calls it between its models only
-    calls.clear()
-    sums.solve(field=FIELD, prior=prior, scale=LSB_NT, max_iter=1, refuse_worse=False, between=lambda: calls.append(1))
-    assert calls == [1, 1]
-
-
 def test_gains_that_move_apart_are_fitted_per_axis():
     # one axis' gain moves by 0.3 % (a fluxgate's own coefficient over ~150 C, or a front-end
     # resistor): neither a common gain nor one per ADC explains it; the per-axis model does
