@@ -9,10 +9,9 @@
     flow.start(kind, hold) / finish() / cancel() / install(cal) / clear()   # start-, finish-, cancel-, set-, clear-cal
     flow.status()           # its part of `status`
 
-It owns the calibration in force (`cal`, where it came from, why a stored one was
-not loaded) and the session in progress (session.py), and shows them on the LED:
-COLLECTING (keep rotating), SLOW_DOWN (turning faster than the gate), ENOUGH
-(press to finish), DONE / DONE_QUICK / FAILED once, then the steady pattern
+It owns the calibration in force (`cal`, where it came from, why a stored one was not loaded) and the
+session in progress (session.py), and shows them on the LED: COLLECTING (keep rotating), SLOW_DOWN (turning
+faster than the gate), ENOUGH (press to finish), DONE / DONE_QUICK / FAILED once, then the steady pattern
 (FAULT, SAFE, SURVEY or UNCALIBRATED; led.py). A new calibration gets temperature coefficients fitted against the
 one it replaces when their die temperatures are tempco_min_span_c apart, else the previous ones carried over
 (docs/temperature.md). A session ends early with reason "fault" (health.py) or "internal_error" (bootguard.py).
@@ -91,8 +90,7 @@ class CalibrationFlow:
     # ****** the session ******
     def press(self, ev):
         if self.session is None:
-            # idle: a short press starts a calibration (auto: quick or full by the coverage
-            # reached), a long one a quick re-calibration (docs/firmware.md, the button)
+            # idle: a short press starts one (auto: quick or full by the coverage), a long one a quick one
             try:
                 self.start(AUTO if ev == SHORT else QUICK)
             except ProtocolError as e:
@@ -149,16 +147,18 @@ class CalibrationFlow:
         self.held = None   # a calibration refused as worse is kept until the next session
         if self._resident is None:
             self._resident = set(sys.modules)
-        gc.collect()   # the session's modules and buffers want a few contiguous KB of a small heap
+        gc.collect()   # the session's largest block, the gates' hist (5 KB), kept free while its modules load
+        room = bytearray(5 * 4 * 256)
         from session import Session
         from shared.fit import SUMS_PATH
+        room = None
+        gc.collect()
         self._sums_path = SUMS_PATH
         self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind, hold,
                                self.board.polls_drdy)
         self.output.session = self.session
         self.output.respond()   # its samples de-lagged with the session's response
-        # from its own conversions only: the screen's and the de-lag's held samples let go (two
-        # sessions on the same conversions agree to the bit: tests/micropython/two_sessions.py)
+        # its own conversions only: the screen's and de-lag's held samples let go (tests/micropython/two_sessions.py)
         self.output.gap()
         self.last_progress = self._quiet_from = self.board.ticks_ms()
         self._quiet_ms = 0          # tick(): nothing due for this long from _quiet_from (the first pass: all due)
@@ -173,10 +173,11 @@ class CalibrationFlow:
         try:
             cal, result, held = self._conclude(s)
         finally:
-            # the session (its sums, its ring) and its modules are garbage before the calibration
-            # is saved: its JSON text wants a few contiguous KB of a small heap (a Pico's 190 KB)
+            # the session (its sums, its ring) and its modules collected before the calibration's objects and
+            # JSON text are made: they go where the session was, not among its garbage, in a small heap
             s = None
             self._unload()
+            gc.collect()
         return self._settle(cal, result, held)
 
     def _between(self):
@@ -388,8 +389,7 @@ class CalibrationFlow:
             "calibrated": cal is not None,
             "cal_source": self.cal_source,
             "cal_problem": self.cal_problem,
-            # which kind made the calibration in force, and the range its temperature
-            # coefficients were measured over (None: uncompensated)
+            # the kind that made the calibration in force, its temperature coefficients' range (None: none)
             "cal_kind": cal.meta.get("kind", FULL) if cal is not None else None,
             "tempco_range": cal.tempco["range_c"] if cal is not None and cal.tempco else None,
             "last_cal": self.last_result,
