@@ -33,28 +33,33 @@ def json_number(x, nd=3):
     return round(x, nd)
 
 
-# the survey's per-block events (device/survey.py), each one format, written out (not joined
-# at import: the heap): the raw event's head and the data event, the temperature's "%.2f" (as
-# "%s" of "null" when it is not a number: survey.py makes that format then, a fault's rare
-# case), the mean codes in hundredths, the data event's h_c and |h_c| in thousandths in the same
-# format (one string a block, not two: each string made costs ~15 k cycles on an RP2040,
-# MicroPython looks it up among the interned ones); each number three parts of parts3()
-RAW_HEAD = '"t": %d, "n": %d, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "temp": %.2f'
-DATA = ('"t": %d, "temp": %.2f, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "cal": %s, "warn": %s, '
-        '"b": [%s%d.%03d, %s%d.%03d, %s%d.%03d], "f": %d.%03d')
+# the survey's per-block event lines (device/survey.py), each one bytes format of the whole line,
+# written out (not joined at import: the heap): the protocol version first, then the raw
+# event's or the data event's members; the temperature's "%.2f" (as "%s" of null when it is
+# not a number: survey.py makes that format then, a fault's rare case), the mean codes in
+# hundredths, the data event's h_c and |h_c| in thousandths; each number three parts of
+# parts3() (its signs BYTE_SIGNS). Bytes, and one format a block: each str made costs ~15 k
+# cycles on an RP2040 (MicroPython looks it up among the interned ones), a bytes ~1.5 k, and
+# the line goes to the serial port as it is (Protocol.send_line), no head, join or encode
+RAW_LINE = b'{"v": %d, "ev": "raw", "t": %d, "n": %d, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "temp": %.2f}\n'
+DATA_LINE = (b'{"v": %d, "ev": "data", "t": %d, "temp": %.2f, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "cal": %s, '
+             b'"warn": %s, "b": [%s%d.%03d, %s%d.%03d, %s%d.%03d], "f": %d.%03d}\n')
+SIGNS = ("", "-")           # parts3's signs for a str format (the survey log's line)
+BYTE_SIGNS = (b"", b"-")    # and for a bytes one (the event lines above)
 
 
-def parts3(a, b, c, p):
-    """The nine parts (sign, whole, fraction: a '%s%d.%0Nd' each) of the ints a, b, c of 1/p units."""
-    sa = sb = sc = ""
+def parts3(a, b, c, p, signs=SIGNS):
+    """The nine parts (sign, whole, fraction: a '%s%d.%0Nd' each) of the ints a, b, c of 1/p units;
+    the signs signs[0] (none) and signs[1] (minus): SIGNS for a str format, BYTE_SIGNS for bytes."""
+    sa = sb = sc = signs[0]
     if a < 0:
-        sa = "-"
+        sa = signs[1]
         a = -a
     if b < 0:
-        sb = "-"
+        sb = signs[1]
         b = -b
     if c < 0:
-        sc = "-"
+        sc = signs[1]
         c = -c
     return (sa, a // p, a % p, sb, b // p, b % p, sc, c // p, c % p)
 
@@ -100,22 +105,17 @@ class Protocol:
         self.errors += 1
         self.send({"v": VERSION, "ok": False, "cmd": cmd, "error": code, "msg": msg})
 
-    def event(self, name, fields, members=""):
-        """An event line. fields: a dict, or its members already as JSON text ('"t": 5, "c":
-        [1.5, 2.0, 3.25]': survey.py's per-block events, printed from integers without a
-        dict or json.dumps, 10 a second); `members` JSON text appended as it is ('"f":
-        48000.123'): numbers printed from integers, to digits a narrow float cannot hold."""
-        if fields.__class__ is str:
-            head = '{"v": %d, "ev": "%s", %s' % (VERSION, name, fields)
-        else:
-            out = {"v": VERSION, "ev": name}
-            for k in fields:
-                out[k] = fields[k]
-            if not members:
-                self.send(out)
-                return
-            head = json.dumps(out)[:-1]
-        self.board.serial_write((head + (", " + members + "}\n" if members else "}\n")).encode())
+    def event(self, name, fields):
+        """An event line: fields a dict of its members."""
+        out = {"v": VERSION, "ev": name}
+        for k in fields:
+            out[k] = fields[k]
+        self.send(out)
+
+    def send_line(self, line):
+        """An event line made whole (bytes, newline ended): survey.py's per-block events (RAW_LINE,
+        DATA_LINE), 10 a second, printed from integers to digits a narrow float cannot hold."""
+        self.board.serial_write(line)
 
     # ****** input ******
     def poll(self):

@@ -37,7 +37,7 @@ import json
 from array import array
 
 from flashlog import RotatingLog
-from protocol import DATA, RAW_HEAD, hundredths, json_number, parts3
+from protocol import BYTE_SIGNS, DATA_LINE, RAW_LINE, VERSION, hundredths, json_number, parts3
 from screen import Screen
 from shared.delag import DELAY, Delag, configured_tau_s, tau_us
 from shared.fixedpoint import FRACTION_BITS, ExactCorrection
@@ -63,8 +63,8 @@ _TEMP_STEP_C = 0.05
 # calibration's mean die reading): warn only this far outside their range
 _RANGE_MARGIN_C = 1.0
 _EXTRAPOLATE_C = 10.0     # and are applied at most this far outside it (held there beyond)
-# a block's texts, each one format (protocol.py's; on an RP2040 a string made costs ~15 k cycles,
-# MicroPython looks it up among the interned ones, and ~2 k more an item); the log line's
+# a block's texts, each one format (the event lines bytes: protocol.py's; on an RP2040 a string
+# made costs ~15 k cycles, MicroPython looks it up among the interned ones); the log line's
 _LOG = "%d,%s%d.%03d,%s%d.%03d,%s%d.%03d,%d.%03d,%.2f\n"
 
 
@@ -336,14 +336,14 @@ class Output:
         t = self.board.ticks_ms()
         stream = self.stream
         nan = temp != temp       # not a number (a fault): the formats' "%.2f" as "%s" of null
-        tv = "null" if nan else temp
+        tv = b"null" if nan else temp
         if stream != "off":
             # the block's mean codes in hundredths from the integer sums: no float to box and print
-            c = parts3(hundredths(sx, d), hundredths(sy, d), hundredths(sz, d), 100)
+            c = parts3(hundredths(sx, d), hundredths(sy, d), hundredths(sz, d), 100, BYTE_SIGNS)
         if stream == "raw":
             # n: its last sample's block number (the screen holds one back, the de-lag DELAY more)
             seq = -1 if self.acq is None else (self.acq.last_block - 1 - (DELAY if self._delag_on else 0)) & 0x3FFFFFFF
-            self.proto.event("raw", (RAW_HEAD.replace("%.2f", "%s") if nan else RAW_HEAD) % ((t, seq) + c + (tv,)))
+            self.proto.send_line((RAW_LINE.replace(b"%.2f", b"%s") if nan else RAW_LINE) % ((VERSION, t, seq) + c + (tv,)))
             if self.recorder is None and (self.log is None or self.session is not None):
                 return
         # h_c and |h_c| in milli-nT, integers: printed to the last digit a narrow float cannot hold
@@ -356,17 +356,15 @@ class Output:
             k = self.scale
             b = (round(sx / d * k[0] * 1000), round(sy / d * k[1] * 1000), round(sz / d * k[2] * 1000))
         f = (2 * fs + (n << FRACTION_BITS)) // (2 * n << FRACTION_BITS)   # the mean |h_c|, milli-nT (rounded)
-        logging = self.log is not None and self.session is None
-        if stream == "corrected" or logging:
-            fp = parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000)
         if stream == "corrected":
-            # the event's members as JSON text (protocol.Protocol.event), one format
-            self.proto.event("data", (DATA.replace("%.2f", "%s") if nan else DATA) % ((t, tv) + c + (
-                "false" if cal is None else "true", "null" if msg is None else json.dumps(msg)) + fp))
+            # the whole line, one bytes format (protocol.DATA_LINE), written as it is
+            self.proto.send_line((DATA_LINE.replace(b"%.2f", b"%s") if nan else DATA_LINE) % ((VERSION, t, tv) + c + (
+                b"false" if cal is None else b"true", b"null" if msg is None else json.dumps(msg).encode())
+                + parts3(b[0], b[1], b[2], 1000, BYTE_SIGNS) + divmod(f, 1000)))
         if self.recorder is not None:
             self.recorder.block(t, f)
-        if logging:
-            self.log.write(_LOG % ((t,) + fp + (temp,)))
+        if self.log is not None and self.session is None:
+            self.log.write(_LOG % ((t,) + parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000) + (temp,)))
 
     def _temperature_warning(self, temp):
         """Whether the die's temperature makes the calibration in force doubtful (cal_temp_warn)

@@ -139,7 +139,7 @@ def _check_against_float64(sent, cases):
         ref = _float64(case)
         assert len(members) == len(ref)
         for text, (b, f) in zip(members, ref):
-            got = json.loads("{" + text + "}")
+            got = json.loads(text)
             for g, r in zip(got["b"] + [got["f"]], list(b) + [f]):
                 worst = max(worst, abs(g - r))
                 assert abs(g - r) <= PRINTED_NT + INTEGER_PATH_NT, (text, b, f)

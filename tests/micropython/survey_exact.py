@@ -4,9 +4,8 @@
 # given). argv[1] a JSON case {"cal": record, "window": n, "per_block": n,
 # "temp": C or null, "sums": [[sx, sy, sz], ...]}, argv[2] the repository root, argv[3] (if
 # given) the folder of the fitsums.mpy to load; on the emulated Pico (no argv) /disk/job.json,
-# the modules and fitsums.mpy in /disk. Prints the "b" and "f" members of every data event
-# as sent, a line each (kept, they would scatter over the heap between collections and leave
-# no room for one long line); with a natmod folder, then "#native" or "#python": whether
+# the modules and fitsums.mpy in /disk. Prints every data event line as sent (kept, they would
+# scatter over the heap between collections and leave no room for one long line); with a natmod folder, then "#native" or "#python": whether
 # fitsums.survey took the samples and fitsums.correct the blocks.
 import json
 import sys
@@ -30,7 +29,7 @@ cfg = defaults()
 cfg["window"] = case["window"]
 cfg["decim"] = max(cfg["decim"], case["window"])
 cfg["log"] = False
-o = Output(Board(), Line(print))
+o = Output(Board(), Line(lambda line: print(line.decode(), end="")))
 o.adc = Die(case["temp"] if case["temp"] is not None else 25.0)
 o.configure(cfg, cfg["survey_hz"] * case["per_block"])
 o.screen = Passes()

@@ -1,5 +1,5 @@
 # Runs on the emulated Pico (desktop/bench/pico_survey.py): device/survey.py's Output with the
-# stream corrected, on survey_stand_ins.py (a data event's members are made, not sent). Reads /disk/job.json {"cal": record, "window": n, "per_block": n, "sums": [[sx, sy,
+# stream corrected, on survey_stand_ins.py (a data event's line is made, not sent). Reads /disk/job.json {"cal": record, "window": n, "per_block": n, "sums": [[sx, sy,
 # sz], ...], "screen_sums": the same with flipped bits}; prints one JSON line, emulated us: per
 # decimated sample through Output.sample (the block outputs included; on an emptied heap,
 # then with it as full as the firmware's after boot), per |h_c| alone, per

@@ -12,13 +12,13 @@ class Board:
 
 
 class Line:
-    """The serial line: each event's members as text (the numbers printed from integers) to `out`."""
+    """The serial line (protocol.Protocol's send_line): each event line, as bytes, to `out`."""
 
     def __init__(self, out):
         self.out = out
 
-    def event(self, name, fields, members=""):
-        self.out(members or fields)
+    def send_line(self, line):
+        self.out(line)
 
 
 class Die:
