@@ -1,14 +1,17 @@
 """device/survey.py's block: Survey.finish reads the C's block sums (fitsums.survey's words: five 64-bit
-two's complements of four 16-bit limbs, least significant first) without big integers where
-they fit a small int (x, y, z, t) or lie under 2**46 (|h_c|'s sum): each way must give the
-integer the general formula gives, at and across every edge between the ways."""
+two's complements of four 16-bit limbs, least significant first) in one struct unpacking ("<5q"):
+it must give the integer the general formula gives at and across every edge (a small int's,
+2**46, the 64-bit ends), on CPython and on every interpreter."""
 
+import json
 import os
+import subprocess
 from array import array
 
 import pytest
 
 from desktop.firmware.files import import_device
+from tests.interpreters import INTERPRETERS, need
 
 survey = import_device("survey")
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -24,12 +27,16 @@ EDGES = [0, 1, -1, (1 << 30) - 1, 1 << 30, -(1 << 30), -(1 << 30) - 1, (1 << 46)
          (0x3FFF << 32) | 0xFFFFFFFF, 0x4000 << 32, 171798691840, -171798691840]
 
 
+def _blocks():
+    """The edges five at a time (every one in each place over the blocks)."""
+    return [(EDGES[k:k + 5] + EDGES[:5])[:5] for k in range(len(EDGES))]
+
+
 @pytest.mark.parametrize("python_sums", [0, 5, -(1 << 40)])
 def test_finish_reads_every_64_bit_sum_as_the_formula_does(python_sums):
     cfg = {"survey_hz": 10}
     sv = survey.Survey(cfg, 2, 100, native=False)
-    for k in range(0, len(EDGES), 5):
-        values = (EDGES[k:k + 5] + EDGES[:5])[:5]
+    for values in _blocks():
         sv.words = array("H", [0] * 86)
         for i, v in enumerate(values):
             sv.words[4 * i:4 * i + 4] = array("H", _limbs(v))
@@ -39,11 +46,24 @@ def test_finish_reads_every_64_bit_sum_as_the_formula_does(python_sums):
         assert got == tuple(v + python_sums for v in values) + (sv.per_block,), values
 
 
+@pytest.mark.parametrize("name", INTERPRETERS)
+def test_finish_reads_them_so_on_every_interpreter(name, tmp_path):
+    """The same unpacking (struct's "<5q", in C) where it runs: the MicroPython boards that load
+    fitsums (CircuitPython's too: the same interpreter's struct), 31- and 63-bit small ints."""
+    cases = tmp_path / "limbs.json"
+    cases.write_text(json.dumps([sum((_limbs(v) for v in values), []) for values in _blocks()]))
+    for python_sums in (0, -(1 << 40)):
+        proc = subprocess.run([need(name), os.path.join(REPO, "tests", "micropython", "survey_finish.py"), REPO,
+                               str(cases), str(python_sums)], capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        got = [json.loads(line) for line in proc.stdout.splitlines()]
+        assert got == [[v + python_sums for v in values] + [10] for values in _blocks()]
+
+
 @pytest.mark.parametrize("stream", ["corrected", "raw"])
 def test_a_die_temperature_not_a_number_goes_out_as_null(stream):
     """The block's format with its temperature's "%.2f" as "%s" of null (survey.py makes it only
     then): the event is JSON, its other numbers as in a block with a temperature."""
-    import json
     import sys
     sys.path.insert(0, os.path.join(REPO, "desktop", "bench", "micropython-scripts"))
     from survey_stand_ins import Board, Die, Line
