@@ -2,7 +2,7 @@
 line per block while no calibration is in progress.
 
     log = RotatingLog(root, file_bytes, files, reserve)
-    log.write("t_ms,...\n")     # False once it stopped: .error says why (log_full, log_error)
+    log.write(b"t_ms,...\n")    # a line's bytes; False once it stopped: .error says why (log_full, log_error)
     log.close()
 """
 
@@ -18,7 +18,7 @@ class RotatingLog:
     must exceed file_bytes + reserve, otherwise logging stops with a reason.
     """
 
-    HEADER = "t_ms,x_nt,y_nt,z_nt,f_nt,temp_c\n"
+    HEADER = b"t_ms,x_nt,y_nt,z_nt,f_nt,temp_c\n"   # lines are bytes (survey.py's one format each)
 
     def __init__(self, root, file_bytes, files, reserve):
         self.root = root
@@ -60,7 +60,7 @@ class RotatingLog:
         if free is not None and free < self.file_bytes + self.reserve:
             self.error = "log_full: %d bytes free, need %d" % (free, self.file_bytes + self.reserve)
             return False
-        self.f = open(name, "w")
+        self.f = open(name, "wb")
         self.f.write(self.HEADER)
         self.size = len(self.HEADER)
         self.index = (self.index + 1) % self.files

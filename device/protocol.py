@@ -38,28 +38,26 @@ def json_number(x, nd=3):
 # event's or the data event's members; the temperature's "%.2f" (as "%s" of null when it is
 # not a number: survey.py makes that format then, a fault's rare case), the mean codes in
 # hundredths, the data event's h_c and |h_c| in thousandths; each number three parts of
-# parts3() (its signs BYTE_SIGNS). Bytes, and one format a block: each str made costs ~15 k
+# parts3(). Bytes, and one format a block: each str made costs ~15 k
 # cycles on an RP2040 (MicroPython looks it up among the interned ones), a bytes ~1.5 k, and
 # the line goes to the serial port as it is (Protocol.send_line), no head, join or encode
 RAW_LINE = b'{"v": %d, "ev": "raw", "t": %d, "n": %d, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "temp": %.2f}\n'
 DATA_LINE = (b'{"v": %d, "ev": "data", "t": %d, "temp": %.2f, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "cal": %s, '
              b'"warn": %s, "b": [%s%d.%03d, %s%d.%03d, %s%d.%03d], "f": %d.%03d}\n')
-SIGNS = ("", "-")           # parts3's signs for a str format (the survey log's line)
-BYTE_SIGNS = (b"", b"-")    # and for a bytes one (the event lines above)
 
 
-def parts3(a, b, c, p, signs=SIGNS):
-    """The nine parts (sign, whole, fraction: a '%s%d.%0Nd' each) of the ints a, b, c of 1/p units;
-    the signs signs[0] (none) and signs[1] (minus): SIGNS for a str format, BYTE_SIGNS for bytes."""
-    sa = sb = sc = signs[0]
+def parts3(a, b, c, p):
+    """The nine parts (sign, whole, fraction: a b'%s%d.%0Nd' each, the sign bytes) of the ints a, b,
+    c of 1/p units."""
+    sa = sb = sc = b""
     if a < 0:
-        sa = signs[1]
+        sa = b"-"
         a = -a
     if b < 0:
-        sb = signs[1]
+        sb = b"-"
         b = -b
     if c < 0:
-        sc = signs[1]
+        sc = b"-"
         c = -c
     return (sa, a // p, a % p, sb, b // p, b % p, sc, c // p, c % p)
 

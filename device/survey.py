@@ -38,7 +38,7 @@ from array import array
 from struct import unpack_from
 
 from flashlog import RotatingLog
-from protocol import BYTE_SIGNS, DATA_LINE, RAW_LINE, VERSION, hundredths, json_number, parts3
+from protocol import DATA_LINE, RAW_LINE, VERSION, hundredths, json_number, parts3
 from screen import Screen
 from shared.delag import DELAY, Delag, configured_tau_s, tau_us
 from shared.fixedpoint import FRACTION_BITS, ExactCorrection
@@ -64,9 +64,10 @@ _TEMP_STEP_C = 0.05
 # calibration's mean die reading): warn only this far outside their range
 _RANGE_MARGIN_C = 1.0
 _EXTRAPOLATE_C = 10.0     # and are applied at most this far outside it (held there beyond)
-# a block's texts, each one format (the event lines bytes: protocol.py's; on an RP2040 a string
-# made costs ~15 k cycles, MicroPython looks it up among the interned ones); the log line's
-_LOG = "%d,%s%d.%03d,%s%d.%03d,%s%d.%03d,%d.%03d,%.2f\n"
+# a block's texts, each one bytes format (the event lines protocol.py's; on an RP2040 a string
+# made costs ~15 k cycles, MicroPython looks it up among the interned ones, a bytes ~1.5 k); the
+# log line's
+_LOG = b"%d,%s%d.%03d,%s%d.%03d,%s%d.%03d,%d.%03d,%.2f\n"
 
 
 class Survey:
@@ -331,7 +332,7 @@ class Output:
         tv = b"null" if nan else temp
         if stream != "off":
             # the block's mean codes in hundredths from the integer sums: no float to box and print
-            c = parts3(hundredths(sx, d), hundredths(sy, d), hundredths(sz, d), 100, BYTE_SIGNS)
+            c = parts3(hundredths(sx, d), hundredths(sy, d), hundredths(sz, d), 100)
         if stream == "raw":
             # n: its last sample's block number (the screen holds one back, the de-lag DELAY more)
             seq = -1 if self.acq is None else (self.acq.last_block - 1 - (DELAY if self._delag_on else 0)) & 0x3FFFFFFF
@@ -348,15 +349,17 @@ class Output:
             k = self.scale
             b = (round(sx / d * k[0] * 1000), round(sy / d * k[1] * 1000), round(sz / d * k[2] * 1000))
         f = (2 * fs + (n << FRACTION_BITS)) // (2 * n << FRACTION_BITS)   # the mean |h_c|, milli-nT (rounded)
+        logging = self.log is not None and self.session is None
+        if stream == "corrected" or logging:
+            fp = parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000)
         if stream == "corrected":
             # the whole line, one bytes format (protocol.DATA_LINE), written as it is
             self.proto.send_line((DATA_LINE.replace(b"%.2f", b"%s") if nan else DATA_LINE) % ((VERSION, t, tv) + c + (
-                b"false" if cal is None else b"true", b"null" if msg is None else json.dumps(msg).encode())
-                + parts3(b[0], b[1], b[2], 1000, BYTE_SIGNS) + divmod(f, 1000)))
+                b"false" if cal is None else b"true", b"null" if msg is None else json.dumps(msg).encode()) + fp))
         if self.recorder is not None:
             self.recorder.block(t, f)
-        if self.log is not None and self.session is None:
-            self.log.write(_LOG % ((t,) + parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000) + (temp,)))
+        if logging:
+            self.log.write(_LOG % ((t,) + fp + (temp,)))
 
     def _temperature_warning(self, temp):
         """Whether the die's temperature makes the calibration in force doubtful (cal_temp_warn)
