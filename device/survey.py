@@ -110,17 +110,14 @@ class Survey:
     def finish(self):
         """The full block's sums (x, y, z, t codes; f) and n, the next block opened."""
         w = self.words
-        if w is None:
-            s = (self._sx, self._sy, self._sz, self._st, self._f)
-        else:
-            # the C's five 64-bit two's complements, low limb first (little-endian, as the boards and
-            # hc.h have them): one unpacking in C, small ints where they fit (x, y, z, t), instead of
-            # the limbs read and joined in bytecode (~36 k cycles a block on an RP2040, ~10 k so)
-            s = unpack_from("<5q", w)
-            s = (s[0] + self._sx, s[1] + self._sy, s[2] + self._sz, s[3] + self._st, s[4] + self._f)
+        # the C's five 64-bit two's complements, low limb first (little-endian, as the boards and
+        # hc.h have them): one unpacking in C, small ints where they fit (x, y, z, t), instead of
+        # the limbs read and joined in bytecode (~36 k cycles a block on an RP2040, ~18 k so)
+        s = (0, 0, 0, 0, 0) if w is None else unpack_from("<5q", w)
+        s = (s[0] + self._sx, s[1] + self._sy, s[2] + self._sz, s[3] + self._st, s[4] + self._f, self.per_block)
         self.blocks += 1
         self.restart()
-        return s + (self.per_block,)
+        return s
 
 
 class Output:
@@ -348,7 +345,9 @@ class Output:
         else:
             k = self.scale
             b = (round(sx / d * k[0] * 1000), round(sy / d * k[1] * 1000), round(sz / d * k[2] * 1000))
-        f = (2 * fs + (n << FRACTION_BITS)) // (2 * n << FRACTION_BITS)   # the mean |h_c|, milli-nT (rounded)
+        # the mean |h_c| in milli-nT, rounded (halves up): fs is a big int on a 32-bit port, one
+        # heap allocation an operation, so the fewest (not (2 fs + 2^8 n) // (2^9 n))
+        f = (fs + (n << (FRACTION_BITS - 1))) // (n << FRACTION_BITS)
         logging = self.log is not None and self.session is None
         if stream == "corrected" or logging:
             fp = parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000)

@@ -10,7 +10,8 @@ own mpy-cross: emulated time per decimated sample from the DRDY ring (Acquisitio
 a call, into Output.sample with the firmware's screen and de-lag: the whole per-sample path),
 through Output.sample alone (block outputs included; after a collection, then with small live
 objects filling the heap to the firmware's free after boot), per |h_c| alone, per block output
-alone; x 125 gives cycles (125 MHz). The
+alone (to the stand-in line, then through the firmware's Protocol to a port that takes the
+bytes), per block's sums alone (Survey.finish); x 125 gives cycles (125 MHz). The
 stand-ins (serial line, screen, die) cost a little of their own; the same in both trees.
 Then device/screen.py's Screen.push alone on the same spin with a flipped bit in one
 sample of 40 (the default spike_nt and scale), the loop's own cost taken off: after a
@@ -106,8 +107,10 @@ def main(argv=None):
                                 "the firmware's screen and de-lag; block outputs included)"),
                        ("per_sample", "per decimated sample (Output.sample, block outputs included)"),
                        ("per_sample_full", "the same, small live objects filling the heap to 85 KB free (as after boot)"),
-                       ("magnitude", "|h_c| alone"), ("block", "a block's output alone (correct, format the event)")):
-        if key in got:
+                       ("magnitude", "|h_c| alone"), ("block", "a block's output alone (correct, format the event)"),
+                       ("block_protocol", "the same through the firmware's Protocol to the serial port"),
+                       ("finish", "a block's sums alone (Survey.finish, from the C's words)")):
+        if got.get(key) is not None:
             print("| %s | %.1f | %s |" % (label, got[key], "{:,}".format(round(got[key] * MHZ))))
     print()
     py = "py_screen" in got

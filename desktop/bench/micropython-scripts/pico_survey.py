@@ -13,6 +13,7 @@ import time
 
 sys.path.insert(0, "/disk")
 from config import defaults  # noqa: E402
+from protocol import Protocol  # noqa: E402
 from screen import Screen  # noqa: E402
 from shared.calibration import Calibration  # noqa: E402
 from survey import Output  # noqa: E402
@@ -65,6 +66,15 @@ def main():
     for _ in range(100):
         o._output(blk)
     block = time.ticks_diff(time.ticks_us(), t0) / 100
+    # the same through the firmware's Protocol (protocol.py) to a port that takes the bytes
+    line, o.proto = o.proto, Protocol(Board(), {}, None)
+    gc.collect()
+    t0 = time.ticks_us()
+    for _ in range(100):
+        o._output(blk)
+    block_protocol = time.ticks_diff(time.ticks_us(), t0) / 100
+    o.proto = line
+    finish = _finish(o.survey)
     path = "integers" if hasattr(o, "exact_w") else "floats"
     blk = o = None
     ring = _from_ring(cfg, cal, sums)
@@ -75,9 +85,29 @@ def main():
         out["py_screen"], out["py_screen_full"] = _screen(cfg, screen_sums, False)[:2]
     sums = None
     out["screen"], out["screen_full"], out["screen_spikes"] = _screen(cfg, screen_sums)[:3]
-    out.update({"ring": ring, "per_sample": per_sample, "per_sample_full": per_sample_full, "magnitude": magnitude, "block": block, "path": path,
+    out.update({"ring": ring, "per_sample": per_sample, "per_sample_full": per_sample_full, "magnitude": magnitude, "block": block,
+                "block_protocol": block_protocol, "finish": finish, "path": path,
                 "magnitude_path": getattr(corr, "path", "python")})
     print(json.dumps(out))
+
+
+def _finish(sv):
+    """us per Survey.finish of a block whose sums are in the C's words (where they are: else
+    None), the words refilled with an open block's sums before each, the refill's own cost taken off."""
+    w = sv.words
+    if w is None:
+        return None
+    saved = w[:20]
+    us = []
+    for call in (False, True):
+        gc.collect()
+        t0 = time.ticks_us()
+        for _ in range(100):
+            w[:20] = saved
+            if call:
+                sv.finish()
+        us.append(time.ticks_diff(time.ticks_us(), t0) / 100)
+    return us[1] - us[0]
 
 
 def _from_ring(cfg, record, sums):

@@ -10,15 +10,22 @@ class Board:
     def ticks_ms(self):
         return 0
 
+    def serial_write(self, data):     # protocol.Protocol's port: the bytes taken
+        pass
+
 
 class Line:
-    """The serial line (protocol.Protocol's send_line): each event line, as bytes, to `out`."""
+    """The serial line (protocol.Protocol's send_line): each event line, as bytes, to `out`; and a
+    tree's before 2026-12-03 (pico_survey.py --source), its event: the members' text, not framed."""
 
     def __init__(self, out):
         self.out = out
 
     def send_line(self, line):
         self.out(line)
+
+    def event(self, name, fields, members=""):
+        self.out(members or fields)
 
 
 class Die:
