@@ -87,3 +87,47 @@ def test_a_die_temperature_not_a_number_goes_out_as_null(stream):
         assert g["temp"] == 25.0 and b["temp"] is None
         g.pop("temp"), b.pop("temp")
         assert g == b
+
+
+# a block's lines as main's survey.py made them before they were bytes (Protocol.event's framing
+# of one str format; the log's str line): the same bytes now, to the byte
+DATA_LINE = (b'{"v": 1, "ev": "data", "t": 0, "temp": -3.46, "c": [555500.00, -749961.50, 1246150.00], "cal": true, '
+             b'"warn": "temperature -3.5 C differs from calibration 20.0 C", "b": [7922.784, -10871.542, 17819.230], '
+             b'"f": 24374.239}\n')
+LOG_FILE = b't_ms,x_nt,y_nt,z_nt,f_nt,temp_c\n0,7922.784,-10871.542,17819.230,24374.239,-3.46\n'
+RAW_LINE = b'{"v": 1, "ev": "raw", "t": 0, "n": -1, "c": [555500.00, -749961.50, 1246150.00], "temp": -3.46}\n'
+
+
+@pytest.mark.parametrize("stream", ["corrected", "raw"])
+def test_a_blocks_lines_are_the_protocols_to_the_byte(stream, tmp_path):
+    import sys
+    sys.path.insert(0, os.path.join(REPO, "desktop", "bench", "micropython-scripts"))
+    from survey_stand_ins import Board, Die
+    from shared.calibration import Calibration
+    config = import_device("config")
+    protocol = import_device("protocol")
+
+    class Port(Board):
+        root = str(tmp_path)
+        sent = []
+
+        def serial_write(self, data):
+            self.sent.append(bytes(data))
+
+    cfg = config.defaults()
+    cfg["log"] = stream == "corrected"
+    board = Port()
+    o = survey.Output(board, protocol.Protocol(board, {}, None), native=False)
+    o.adc = Die(-3.456)
+    o.configure(cfg, 100)
+    cal = Calibration([[0.0144, 0.0001, 0], [0, 0.0145, 0], [0, 0, 0.0143]], [100.0, -200.0, 50.0], 48000.0)
+    cal.meta["temperature_c"] = 20.0
+    o.use(cal)
+    o.set_stream(stream)
+    for i in range(30):
+        o.sample(2000000 + 1000 * i - 3000000 * (i % 3 == 0), -1500000 + 7 * i,
+                 2500000 - 700 * i - 5000000 * (i % 2), 9000)
+    o.close()
+    assert board.sent[0] == (DATA_LINE if stream == "corrected" else RAW_LINE)
+    if stream == "corrected":
+        assert (tmp_path / "log0.csv").read_bytes() == LOG_FILE
