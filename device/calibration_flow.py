@@ -31,6 +31,7 @@ from shared.codes import AUTO, FULL, QUICK
 KEEP_CAL = "keep-cal"
 SOLVE = "solve"   # board.busy key: a solve, charged as simulated time by the simulated board
 KINDS = (AUTO, FULL, QUICK)   # start-cal's (the session's states and kinds: shared/codes.py)
+HIST_BYTES = 5 * 4 * 256      # gates.py's hist (5 ints x HIST), a session's largest block (start)
 # A session's modules (session.py, the gates, the fit and its solver: ~42 KB of heap on a 32-bit board running .mpy
 # from RAM) are imported when a session starts and dropped once it ends, so that idle and survey run without them
 # (docs/firmware.md, the heap). Not on CPython: the simulated device shares sys.modules with the desktop's shared/.
@@ -147,8 +148,8 @@ class CalibrationFlow:
         self.held = None   # a calibration refused as worse is kept until the next session
         if self._resident is None:
             self._resident = set(sys.modules)
-        gc.collect()   # the session's largest block, the gates' hist (5 KB), kept free while its modules load
-        room = bytearray(5 * 4 * 256)
+        gc.collect()   # the session's largest block, the gates' hist, kept free while its modules load
+        room = bytearray(HIST_BYTES)
         from session import Session
         from shared.fit import SUMS_PATH
         room = None
@@ -173,8 +174,7 @@ class CalibrationFlow:
         try:
             cal, result, held = self._conclude(s)
         finally:
-            # the session (its sums, its ring) and its modules collected before the calibration's objects and
-            # JSON text are made: they go where the session was, not among its garbage, in a small heap
+            # the session and its modules collected first: the calibration's objects go where it was, packed
             s = None
             self._unload()
             gc.collect()

@@ -120,3 +120,18 @@ def test_a_quick_finish_drains_the_ring_inside_its_solve():
     # between the gain models and before the shape test, their iterations (tests/test_shared_between.py),
     # then the finish's own (after the solve, after the statistics)
     assert len(calls) >= 5 and [c[0] for c in calls] == ["service"] * len(calls), calls
+
+
+def test_the_start_keeps_free_a_block_the_size_of_the_gates_history():
+    """calibration_flow.start reserves HIST_BYTES while a session's modules load, for the gates'
+    removal history (docs/limits.md): the two sizes must not drift apart."""
+    flow = import_device("calibration_flow")
+    gates = import_device("gates")
+    g = gates.Gates(import_device("config").defaults(), None, _Cov(), 2, 10.0, (0, 0, 0), native=False)
+    assert flow.HIST_BYTES == len(g.hist) * g.hist.itemsize == 5 * 4 * gates.HIST
+
+
+class _Cov:
+    _cuts = [0]
+    edge = 1
+    counts = None
