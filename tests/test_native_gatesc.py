@@ -53,7 +53,8 @@ def reference():
 
 @pytest.fixture(scope="module")
 def board_reference():
-    """The emulated Pico runs every stream a quarter as long, the disturbance from sample 1300."""
+    """The emulated Pico runs every stream a quarter as long, a third of the edges, the disturbed
+    ones from sample 1300 to 1900 (native_gatesc.py SHORT_FLOATS)."""
     return _reference("short")
 
 

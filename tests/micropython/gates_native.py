@@ -38,11 +38,12 @@ def step(i):
     return 300.0 if DISTURBED[0] <= i < DISTURBED[1] else 0.0
 
 
-def samples(disturbance=step):
+def samples(disturbance=step, first=0):
     """The sums of a turn at ~30 deg/s along a spiral over the sphere (made as they are taken:
-    a list of them is more than a small heap holds), `disturbance(i)` nT added along x."""
+    a list of them is more than a small heap holds), `disturbance(i)` nT added along x, from
+    sample `first`."""
     mi = inverse(matrix())
-    for i in range(N):
+    for i in range(first, N):
         t = i / 100.0
         theta = math.acos(1.0 - 2.0 * (i + 0.5) / N)     # pole to pole once
         phi = 0.5 * t                                  # ~0.5 rad/s around
