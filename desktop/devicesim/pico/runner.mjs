@@ -25,6 +25,8 @@
 //     emulated clock, and steps disabled state machines too; here the enabled ones run when
 //     something they wait on may have changed (an input pin, the block's registers, its FIFOs,
 //     CTRL) until each waits again: pioOnEvents below.
+//  6. Speed (decoder.mjs): the core's instruction decode indexed by the opcode's top five bits and
+//     SRAM stores before the peripheral lookup; the same instructions and cycles, ~1.3x faster.
 // The flash is made writable by patching the boot ROM's flash_range_erase / flash_range_program
 // to BKPT and doing the erase (fill 0xff) and program (AND, as NOR flash) in onBreak.
 import fs from 'node:fs';
@@ -51,6 +53,13 @@ const { WorldBridge } = args.world ? await import('./pins.mjs') : {};
 const { Parts } = await import('./parts.mjs');
 const { RPPIO } = await esm('peripherals/pio.js');
 const { GPIOPin } = await esm('gpio-pin.js');
+const { CortexM0Core } = await esm('cortex-m0-core.js');
+const { MAX_HARDWARE_IRQ } = await esm('irq.js');
+const { APB_START_ADDRESS, SIO_START_ADDRESS, RAM_START_ADDRESS } = await esm('rp2040.js');
+const { indexDecoder, sramFirst } = await import('./decoder.mjs');
+indexDecoder(path.join(args.modules, 'rp2040js', 'dist', 'esm', 'cortex-m0-core.js'), CortexM0Core,
+  { MAX_HARDWARE_IRQ, APB_START_ADDRESS, SIO_START_ADDRESS }, say);
+sramFirst(RP2040, RAM_START_ADDRESS);
 
 // ****** the flash file: the whole 2 MiB, firmware image rewritten at each start ******
 function loadFlash() {
