@@ -85,8 +85,8 @@ RECIPES = {
     "rp2-pico": ("rp2/micropython-*-rp2-src.tar.xz", "ports/rp2",
                  ["-DPICO_BUILD_DOCS=0", "-DMICROPY_BOARD=RPI_PICO", "-DPICO_NO_PICOTOOL=1"],
                  "firmware.bin", ("arm-none-eabi-gcc", "arm-none-eabi-g++ <cstdlib>", "cmake", "node", "npm")),
-    # the same with MICROPY_FROZEN_MANIFEST=device/manifest.py (given in build(): the checkout's path);
-    # rebuilt when a frozen file changes (_stamp), which recompiles only the frozen content
+    # the same with MICROPY_FROZEN_MANIFEST=device/manifest.py (given in build(): the checkout's path),
+    # in rp2-pico's cmake tree; rebuilt when a frozen file changes (_stamp)
     "rp2-pico-frozen": ("rp2/micropython-*-rp2-src.tar.xz", "ports/rp2",
                         ["-DPICO_BUILD_DOCS=0", "-DMICROPY_BOARD=RPI_PICO", "-DPICO_NO_PICOTOOL=1"],
                         "firmware.bin", ("arm-none-eabi-gcc", "arm-none-eabi-g++ <cstdlib>", "cmake")),
@@ -231,11 +231,14 @@ def build(name, log=print):
         steps = [["make", "-j2", "-C", os.path.join(src, "mpy-cross")]]
     else:
         steps = []
+    # both Pico images from one cmake tree, the manifest set each time (empty: the port's own):
+    # the second recompiles only the frozen content
+    tree = os.path.join(BUILD, "rp2-pico", "cmake")
     if rp2:
-        frozen = ["-DMICROPY_FROZEN_MANIFEST=" + MANIFEST] if name == "rp2-pico-frozen" else []
-        steps += [["cmake", "-S", os.path.join(src, RECIPES[name][1]), "-B", os.path.join(out, "cmake")]
-                  + RECIPES[name][2] + frozen,
-                  ["make", "-j2", "-C", os.path.join(out, "cmake")]]
+        manifest = MANIFEST if name == "rp2-pico-frozen" else ""
+        steps += [["cmake", "-S", os.path.join(src, RECIPES[name][1]), "-B", tree]
+                  + RECIPES[name][2] + ["-DMICROPY_FROZEN_MANIFEST=" + manifest],
+                  ["make", "-j2", "-C", tree]]
     if name == "rp2-pico":   # the real path: with build/ a symlink npm takes the folder for a linked package
         steps.append(["npm", "ci", "--no-audit", "--no-fund", "--prefix", os.path.realpath(os.path.join(out, "node"))])
         os.makedirs(os.path.join(out, "node"), exist_ok=True)
@@ -244,6 +247,8 @@ def build(name, log=print):
     elif not rp2:
         steps.append(["make", "-j2", "-C", os.path.join(src, RECIPES[name][1])] + RECIPES[name][2])
     os.makedirs(out, exist_ok=True)
+    if rp2:     # makemanifest keeps a frozen .mpy newer than its source, made for the other manifest
+        shutil.rmtree(os.path.join(tree, "frozen_mpy"), ignore_errors=True)
     with open(os.path.join(out, "build.log"), "w") as logfile:
         for cmd in steps:
             r = subprocess.run(cmd, stdout=logfile, stderr=subprocess.STDOUT, env=env)
@@ -252,11 +257,11 @@ def build(name, log=print):
                                                              os.path.relpath(logfile.name, REPO)))
                 return None
     if name == "rp2-pico":     # the image, the mpy-cross of the same tree and the boot ROM side by side
-        shutil.copy2(os.path.join(out, "cmake", "firmware.bin"), _product(name))
+        shutil.copy2(os.path.join(tree, "firmware.bin"), _product(name))
         shutil.copy2(os.path.join(src, "mpy-cross", "build", "mpy-cross"), os.path.join(out, "mpy-cross"))
         shutil.copyfile(BOOTROM, os.path.join(out, os.path.basename(BOOTROM)))   # not its read-only mode
     elif name == "rp2-pico-frozen":     # the image, and the same as a .uf2 for a real Pico's drag and drop
-        shutil.copy2(os.path.join(out, "cmake", "firmware.bin"), _product(name))
+        shutil.copy2(os.path.join(tree, "firmware.bin"), _product(name))
         with open(_product(name), "rb") as fh, open(os.path.join(out, "firmware.uf2"), "wb") as uf2:
             uf2.write(to_uf2(fh.read()))
     else:
