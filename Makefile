@@ -21,8 +21,10 @@ interpreters: $(STAMP)
 pico-frozen: $(STAMP)
 	$(BIN)/python -m desktop.firmware.interpreters build rp2-pico rp2-pico-frozen
 
+# three workers on two cores: the real-time tests (a handheld turned or walked at the wall clock's
+# pace) wait most of their time, and the third worker fills it (tests/conftest.py)
 test: $(STAMP) interpreters
-	$(BIN)/python -m pytest -q -n 2 --dist worksteal --durations=15
+	$(BIN)/python -m pytest -q -n 3 --dist worksteal --durations=15
 
 demo: $(STAMP)
 	$(BIN)/fluxcal demo

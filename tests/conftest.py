@@ -33,16 +33,17 @@ def root():
     return ROOT
 
 
-# The longest tests (a minute or more each on a 2-core CI machine: the emulated Pico, the wheel's
-# venvs, the laptop's chain) are collected first, so that `make test`'s two workers (pytest -n 2
-# --dist worksteal) start them early and end together on short ones, not with one long test
-# running alone at the end. Order only: nothing here skips or changes a test.
+# The longest tests (half a minute to two minutes each on a 2-core CI machine: the emulated Pico,
+# the wheel's venvs, the laptop's chain) are collected first, so that `make test`'s three workers
+# (pytest -n 3 --dist worksteal) start them early and end together on short ones, not with one long
+# test running alone at the end. Order only: nothing here skips or changes a test.
 _LONG_FIRST = (
-    "test_native_gatesc.py", "test_pico_laptop.py", "test_deploy_wheel.py", "test_cli_experiment.py",
-    "test_survey_exact.py", "test_laptop_chain.py", "test_native_magnitude.py", "test_device_slow_sensor.py",
-    "test_survey_record.py", "test_native_gates.py", "test_native_screen.py", "test_pico_frozen.py",
-    "test_native_sums.py", "test_deploy.py", "test_native_delag.py", "test_native_drdy.py",
-    "test_device_survey_day.py", "test_cli_device.py", "test_native_drain.py", "test_cli.py",
+    "test_pico_laptop.py", "test_native_gatesc.py", "test_survey_exact.py", "test_native_magnitude.py",
+    "test_laptop_chain.py", "test_native_gates.py", "test_survey_record.py", "test_pico_frozen.py",
+    "test_deploy_wheel.py", "test_native_delag.py", "test_native_drdy.py", "test_native_drain.py",
+    "test_cli_device.py", "test_native_sums.py", "test_cli_experiment.py", "test_deploy.py",
+    "test_device_survey_day.py", "test_cli.py", "test_pico_decoder.py", "test_device_slow_sensor.py",
+    "test_native_screen.py",
 )
 
 
