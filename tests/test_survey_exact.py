@@ -34,6 +34,7 @@ from tests.interpreters import INTERPRETERS, need
 from tests.test_native_sums import LOADS_NATMODS, _need_natmod
 
 SCRIPT = os.path.join(os.path.dirname(__file__), "micropython", "survey_exact.py")
+PICO_CASES = (0, 4, 6)      # realistic; adversarial at window 64; a board's record
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PRINTED_NT = 0.0005          # the output's milli-nT: half of it is the rounding
 INTEGER_PATH_NT = 3e-5       # fixedpoint.py: 2.2e-5 from the coefficients + the floors
@@ -181,17 +182,29 @@ def test_survey_output_in_c_is_the_pure_ones(name, job, cpython, root):
             assert members[:-1] == ref
 
 
-def test_survey_output_in_c_on_the_emulated_pico(job, cpython):
+def test_survey_output_in_c_on_the_emulated_pico(job, cpython, tmp_path):
     """The same on the emulated Pico (armv6m fitsums.mpy, 31-bit small ints): a realistic, an
     adversarial (window 64: its blocks' sums past a small int, correct in Python) and a board's
-    record, CPython's lines to the digit."""
+    record, CPython's lines to the digit. The modules are copied once (mpremote's copy is most of
+    a run's time) and each case runs after its own soft reset."""
     need("rp2-pico")
-    from desktop.bench.pico_survey import _disk, run_on_pico
+    from desktop.bench.pico_survey import _disk
+    from desktop.devicesim.pico_board import PicoBoard
     path, cases = job
-    for i in (0, 4, 6):
-        got = run_on_pico(lambda disk: _disk(disk, REPO, cases[i], script=SCRIPT), "pico_survey", lines=True)
-        assert got is not None and got[-1] == "#native"
-        assert got[-1 - len(cpython[i]):-1] == cpython[i]
+    disk = tmp_path / "disk"
+    _disk(str(disk), REPO, cases[0], script=SCRIPT)
+    for i in PICO_CASES:
+        (disk / ("job%d.json" % i)).write_text(json.dumps(cases[i]))
+    mpremote = [sys.executable, "-m", "mpremote", "connect"]
+    with PicoBoard(str(tmp_path / "pico.flash")) as board:
+        subprocess.run(mpremote + [board.port, "cp", "-r", str(disk), ":"], check=True, capture_output=True, timeout=600)
+        for i in PICO_CASES:
+            run = ("import os, sys; os.rename('/disk/job%d.json', '/disk/job.json'); "
+                   "sys.path.insert(0, '/disk'); import pico_survey" % i)
+            r = subprocess.run(mpremote + [board.port, "exec", run], capture_output=True, text=True, timeout=600)
+            got = r.stdout.splitlines()
+            assert r.returncode == 0 and got[-1] == "#native", (i, r.stdout[-400:] + r.stderr)
+            assert got[-1 - len(cpython[i]):-1] == cpython[i]
 
 
 def test_float_pair_is_exact_and_short():
