@@ -43,7 +43,8 @@ whole session (residuals.py) give the predicted error's widening.
 
 Native: where deploy installed gatesc.mpy (device/native/gatesc.c; MicroPython boards of a
 matching architecture) a Gates' `sample` is in C: the gates above with the exact |h_c|, and
-for a sample taken fit.add, the cell's count, batches.added() and the hist ring, on the same
+for a sample taken fit.add, the cell's count, the batches' count (batches.added() for a batch's
+last sample) and the hist ring, on the same
 state (`_st`, `_ring`, `hist`); it hands the rest (the float |h_c|, the back-off, the tau sums,
 sums past its words) to Gates.sample, the reference, before changing anything. A Python
 sample frame here is a heap allocation (over 11 slots) plus ~2 k cycles a method call on an

@@ -1,7 +1,8 @@
 """Batch sums of a calibration session's accepted samples: the residuals' correlation in time.
 
     rb = ResidualBatches(fit, centre)   # fit: the session's EllipsoidFit; centre: sum units
-    rb.added()                          # after each fit.add (gates.py)
+    rb.added()                          # after each fit.add (gates.py; gatesc.c counts in
+                                        # rb._due itself, calling it for a batch's last sample)
     rb.removed(x, y, z)                 # after each fit.remove, last in first out
     rb.flush()                          # then rb.sums / counts / cur / width / centre: the batches
                                         # (residual_stats.py reads them at the finish)
@@ -12,7 +13,8 @@ sums per batch are all the board keeps, not the session's samples. The batches' 
 doubles (shared.honest.batch_length) by merging neighbours when all slots are full.
 
 The sums are taken exactly, as differences of the fit's own integer power sums at each
-batch's end (the first 10, degree <= 2: no work per sample), centred exactly, and only
+batch's end (the first 10, degree <= 2: no work per sample; on a board each big-integer
+operation there is an allocation, so the fewest: docs/benchmarks.md), centred exactly, and only
 then rounded to a float: 1,024 samples' sum of squares to 2**-24 of itself moves a
 batch's mean residual by 6e-8 of |B|^2 / 2|B|, 0.003 nT, against the 0.03 nT a white
 1 nT residual leaves in a batch mean.
@@ -40,8 +42,11 @@ class ResidualBatches:
         self.counts = array("i", bytes(4 * SLOTS))   # samples summed into each slot
         self._length = FIRST
         self.cur = 0                    # the slot being filled
-        self._open = 0                  # samples added since the mark, not in a slot yet
+        # [samples added since the mark, not in a slot yet; samples left until the slot is full]:
+        # gatesc.c counts a taken sample here itself and calls added() only for the last one
+        self._due = array("i", [0, FIRST])
         self._marks = [[0] * 10]        # the fits' first 10 sums when a slot last took its samples
+        self._zero = not (centre[0] or centre[1] or centre[2])   # nothing to centre the sums by
 
     def attach(self, below, above):
         """Follow the tau estimate's nodes too (lagfit.py; before the first sample): the fits of
@@ -55,14 +60,18 @@ class ResidualBatches:
 
     def added(self):
         """A sample went into the fit: count it; close the batch when it is full."""
-        self._open += 1
-        if self.counts[self.cur] + self._open == self._length:
+        d = self._due
+        d[0] += 1
+        d[1] -= 1
+        if not d[1]:
             self._close()
 
     def removed(self, x, y, z, ex=0, ey=0, ez=0):
         """The latest sample (x, y, z; its tau step ex, ey, ez) left the fit again (gates.py's back-off)."""
-        if self._open:
-            self._open -= 1                 # not in a slot yet
+        d = self._due
+        if d[0]:
+            d[0] -= 1                       # not in a slot yet
+            d[1] += 1
             return
         i = self.cur
         if not self.counts[i]:
@@ -71,6 +80,7 @@ class ResidualBatches:
             i -= 1
             self.cur = i                   # the batch it closed opens again, one short
         self.counts[i] -= 1
+        d[1] = self._length - self.counts[i]
         c = self.centre
         samples = ((x, y, z), (x - ex, y - ey, z - ez), (x + ex, y + ey, z + ez))[:len(self._fits)]
         centred = []
@@ -84,7 +94,7 @@ class ResidualBatches:
 
     def flush(self):
         """The open batch's samples into its slot (before its sums are read: residual_stats.py)."""
-        if self._open:
+        if self._due[0]:
             self._take()
 
     def _close(self):
@@ -92,11 +102,12 @@ class ResidualBatches:
         self.cur += 1
         if self.cur == SLOTS:
             self._merge()
+        self._due[1] = self._length - self.counts[self.cur]
 
     def _take(self):
         """Sum the open samples into the slot being filled: each fit's sums since its mark,
         centred exactly (sum (x - cx) = Sx - cx n; sum (x - cx)(y - cy) = Sxy - cx Sy - cy Sx
-        + cx cy n) before any rounding."""
+        + cx cy n) before any rounding; about a zero centre (no prior) they are the sums."""
         c = self.centre
         centred = []
         n = 0
@@ -106,14 +117,19 @@ class ResidualBatches:
             d = [now[i] - m[i] for i in range(10)]
             self._marks[f] = now
             n = d[0]
-            out = [d[1 + a] - c[a] * n for a in range(3)]
-            for a in range(3):
-                for b in range(a, 3):
-                    out.append(d[1 + len(out)] - c[a] * d[1 + b] - c[b] * d[1 + a] + c[a] * c[b] * n)
+            if self._zero:
+                out = d[1:]
+            else:
+                # sum (x - cx)(y - cy) = Sxy - cx Sy - cy (Sx - cx n): four big-integer
+                # operations, each an allocation on a board, where the expanded form takes six
+                out = [d[1 + a] - c[a] * n for a in range(3)]
+                for a in range(3):
+                    for b in range(a, 3):
+                        out.append(d[1 + len(out)] - c[a] * d[1 + b] - c[b] * out[a])
             centred.append(out)
         self._store(self.cur, centred, 1)
         self.counts[self.cur] += n
-        self._open = 0
+        self._due[0] = 0
 
     def _store(self, i, centred, sign):
         """Add sign x the centred sums (one list per fit) into slot i: A, and with the nodes
@@ -122,7 +138,11 @@ class ResidualBatches:
         j = i * self.width
         a = centred[0]
         for k in range(WIDTH):
-            s[j + k] += sign * a[k]
+            # (no sign * a[k] when adding: on a board each product of a big int is an allocation)
+            if sign > 0:
+                s[j + k] += a[k]
+            else:
+                s[j + k] -= a[k]
         if len(centred) == 3:
             lo, hi = centred[1], centred[2]
             for k in range(WIDTH):

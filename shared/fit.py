@@ -191,7 +191,20 @@ class EllipsoidFit:
             m = 0xFFFFFFFF
             for n in range(1, end):
                 j = 4 * n - 4
-                s[n] += (w[j] & m) | ((w[j + 1] & m) << 32) | ((w[j + 2] & m) << 64) | (w[j + 3] << 96)
+                # the same integer built from fewer words where the upper ones only extend the
+                # sign (a residual batch's sums, residuals.py: 32 bits for the degree-1 ones, 64
+                # for degree 2): on a board each big-integer operation is an allocation
+                lo = w[j]           # (read once: a word past a small int is a big one each read)
+                a = w[j + 1]
+                hi = w[j + 3]
+                if w[j + 2] != hi or a >> 31 != hi:
+                    v = (lo & m) | ((a & m) << 32) | ((w[j + 2] & m) << 64) | (hi << 96)
+                elif a != (-1 if lo < 0 else 0):
+                    v = (lo & m) | (a << 32)
+                else:
+                    v = lo
+                if v:
+                    s[n] += v
                 w[j] = 0
                 w[j + 1] = 0
                 w[j + 2] = 0

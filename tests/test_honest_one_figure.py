@@ -215,36 +215,44 @@ def test_the_de_lag_terms_noise_is_taken_off_and_the_rest_judged_against_it():
     assert delag_share(rms, 1.0, 0.0) == 1.0 and delag_share(rms, None, k) == 1.0
 
 
-def test_batches_follow_the_back_off_last_in_first_out():
+@pytest.mark.parametrize("centre", [[1200, -600, 320], [0, 0, 0]])
+def test_batches_follow_the_back_off_last_in_first_out(centre):
     """Removals (the gates' back-off) that reach into closed batches leave the batch sums those
-    of the samples still in the fit, whatever the batch boundaries and merges in between."""
+    of the samples still in the fit, whatever the batch boundaries and merges in between; about
+    a prior's offset and about zero (no prior: the sums are taken as they are)."""
     batches_mod = import_device("residuals")
     fit_mod = __import__("shared.fit", fromlist=["EllipsoidFit"])
     rng = np.random.default_rng(5)
     pts = _samples(9, 3000, 0.5, 1.0).tolist()
     fit = fit_mod.EllipsoidFit()
-    centre = [1200, -600, 320]
     rb = batches_mod.ResidualBatches(fit, centre)
     kept = []
+    due = rb._due       # [open, left]: what gatesc.c counts in C, held to the batch's length
+
+    def follows():
+        assert due[1] == rb._length - rb.counts[rb.cur] - due[0] > 0 and due[0] >= 0
+
     for p in pts:
         fit.add(*p)
         rb.added()
         kept.append(p)
+        follows()
         if rng.random() < 0.02:                  # a disturbance: up to 150 samples back out
             for _ in range(min(len(kept) - 1, int(rng.integers(1, 150)))):
                 q = kept.pop()
                 fit.remove(*q)
                 rb.removed(*q)
+                follows()
 
-    class Identity:
-        matrix = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    class Sheared:      # off the diagonal too, so that every one of the 9 sums counts
+        matrix = [[1.0, 0.1, 0.0], [0.0, 1.0, -0.1], [0.05, 0.0, 1.0]]
         offset = [0.0, 0.0, 0.0]
         field = 1.0
 
-    means, counts = import_device("residual_stats").batch_means(rb, Identity)
+    means, counts = import_device("residual_stats").batch_means(rb, Sheared)
     assert sum(counts) == len(kept) == fit.n
-    # the batches are consecutive runs of the kept samples: their mean (|h|^2 - 1) / 2 in order
-    v = np.asarray(kept, dtype=float)
+    # the batches are consecutive runs of the kept samples: their mean (|M h|^2 - 1) / 2 in order
+    v = np.asarray(kept, dtype=float) @ np.asarray(Sheared.matrix).T
     q = (np.einsum("ij,ij->i", v, v) - 1.0) / 2.0
     edges = np.cumsum([0] + counts)
     want = [q[a:b].mean() for a, b in zip(edges[:-1], edges[1:])]
