@@ -46,7 +46,6 @@ class ResidualBatches:
         # gatesc.c counts a taken sample here itself and calls added() only for the last one
         self._due = array("i", [0, FIRST])
         self._marks = [[0] * 10]        # the fits' first 10 sums when a slot last took its samples
-        self._zero = not (centre[0] or centre[1] or centre[2])   # nothing to centre the sums by
 
     def attach(self, below, above):
         """Follow the tau estimate's nodes too (lagfit.py; before the first sample): the fits of
@@ -117,7 +116,7 @@ class ResidualBatches:
             d = [now[i] - m[i] for i in range(10)]
             self._marks[f] = now
             n = d[0]
-            if self._zero:
+            if not (c[0] or c[1] or c[2]):     # nothing to centre them by (no prior)
                 out = d[1:]
             else:
                 # sum (x - cx)(y - cy) = Sxy - cx Sy - cy (Sx - cx n): four big-integer
@@ -138,11 +137,8 @@ class ResidualBatches:
         j = i * self.width
         a = centred[0]
         for k in range(WIDTH):
-            # (no sign * a[k] when adding: on a board each product of a big int is an allocation)
-            if sign > 0:
-                s[j + k] += a[k]
-            else:
-                s[j + k] -= a[k]
+            # (no sign * a[k] when adding: on a board each operation on a big int is an allocation)
+            s[j + k] += a[k] if sign > 0 else -a[k]
         if len(centred) == 3:
             lo, hi = centred[1], centred[2]
             for k in range(WIDTH):
