@@ -3,7 +3,7 @@
 // cycle (tests/test_pico_decoder.py runs both cores side by side and compares).
 //
 // CortexM0Core.executeInstruction (rp2040js 1.4.1, dist/esm/cortex-m0-core.js) decodes a Thumb
-// opcode with one chain of ~90 `if (opcode >> k === pattern)` tests in alphabetical order: an
+// opcode with one chain of 83 `if (opcode >> k === pattern)` tests in alphabetical order: an
 // STR or a PUSH is found after 60 failed tests. Here the same source is cut at load into that
 // chain's branches, and a `switch (opcode >> 11)` on the top five bits holds, for each of its 32
 // values, the branches that can match an opcode there, in the chain's order (so the first match
@@ -54,10 +54,11 @@ const skipSpace = (src, i) => {
 // executeInstruction's source: [before the chain, [{cond, body}], the final else body, after]
 function cut(src) {
   const start = src.indexOf('    executeInstruction() {');
+  if (start < 0) throw new Error('no executeInstruction');
   const open = src.indexOf('{', start);
   const fn = src.slice(open + 1, matching(src, open));
   const first = fn.indexOf('if (opcode >>');
-  if (start < 0 || first < 0) throw new Error('no executeInstruction chain');
+  if (first < 0) throw new Error('no executeInstruction chain');
   const branches = [];
   let i = first, rest = null;
   for (;;) {

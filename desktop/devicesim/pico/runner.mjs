@@ -26,7 +26,7 @@
 //     something they wait on may have changed (an input pin, the block's registers, its FIFOs,
 //     CTRL) until each waits again: pioOnEvents below.
 //  6. Speed (decoder.mjs): the core's instruction decode indexed by the opcode's top five bits and
-//     SRAM stores before the peripheral lookup; the same instructions and cycles, ~1.3x faster.
+//     SRAM stores before the peripheral lookup; the same instructions and cycles, 1.2-1.3x faster.
 // The flash is made writable by patching the boot ROM's flash_range_erase / flash_range_program
 // to BKPT and doing the erase (fill 0xff) and program (AND, as NOR flash) in onBreak.
 import fs from 'node:fs';
