@@ -37,6 +37,7 @@ nodejs and npm (.ci/run installs them). A build that is
 impossible on this machine is reported in one line; the others still build.
 """
 
+import concurrent.futures
 import glob
 import hashlib
 import importlib.util
@@ -276,8 +277,14 @@ def main(argv=None):
     args = sys.argv[1:] if argv is None else argv
     if args[:1] == ["build"]:
         names = args[1:] or list(RECIPES)
-        for name in names:
-            build(name)
+        # two lanes, the Pico's and the rest: each make runs -j2, but configure, qstr generation,
+        # links and npm are serial, and the other lane's compiles fill those gaps on two cores
+        pico = [n for n in names if n.startswith("rp2-")]
+        with concurrent.futures.ThreadPoolExecutor(2) as lanes:
+            rest = lanes.submit(lambda: [build(n) for n in names if n not in pico])
+            for name in pico:
+                build(name)
+            rest.result()
         if not args[1:]:     # and the firmware's native module for each architecture (after rp2-pico's source)
             from desktop.firmware import natmod
             natmod.main(["build"])
