@@ -81,11 +81,13 @@ def test_native_sums_equal_the_pure_python_ones(name, reference, micropython):
 
 def on_the_emulated_pico(tmp_path, script, module="fitsums", sources=None):
     """The armv6m build of `module` on the rp2 firmware (Cortex-M0+, 31-bit small ints): `sources`
-    (repository paths; shared/ by default) and `script` as .mpy from the Pico's own mpy-cross,
-    copied into its flash by mpremote (not mounted: mount's 1 s poll times out when this machine
-    is loaded): what script.main('/disk', '/disk') prints."""
+    (repository paths; shared/ by default) and `script` as .mpy from the Pico's own mpy-cross, in
+    its flash's filesystem at /disk before it boots (desktop/devicesim/pico_flash.py: mpremote's
+    copy was a third of a run; not mounted: mount's 1 s poll times out when this machine is
+    loaded): what script.main('/disk', '/disk') prints."""
     need("rp2-pico")
     from desktop.devicesim.pico_board import PicoBoard
+    from desktop.devicesim.pico_flash import flash_with
     from desktop.firmware.interpreters import pico_parts
     from desktop.firmware.natmod import natmod_path
 
@@ -100,10 +102,10 @@ def on_the_emulated_pico(tmp_path, script, module="fitsums", sources=None):
     subprocess.run([cross, "-o", str(tmp_path / "disk" / (name + ".mpy")), script], check=True)
     for m, natmod in zip(modules, natmods):
         shutil.copyfile(natmod, tmp_path / "disk" / (m + ".mpy"))
-    with PicoBoard(str(tmp_path / "pico.flash"), ) as board:
+    flash_with(str(tmp_path / "pico.flash"), str(tmp_path / "disk"))
+    with PicoBoard(str(tmp_path / "pico.flash")) as board:
         run = "import sys; sys.path.insert(0, '/disk'); import %s; %s.main('/disk', '/disk')" % (name, name)
-        return output([sys.executable, "-m", "mpremote", "connect", board.port, "cp", "-r", str(tmp_path / "disk"),
-                       ":", "+", "exec", run])
+        return output([sys.executable, "-m", "mpremote", "connect", board.port, "exec", run])
 
 
 def on_the_emulated_cortex_m3(tmp_path, script, mpy_cross, module="fitsums", sources=None):

@@ -63,15 +63,14 @@ def test_the_frozen_firmware_boots_in_a_heap_the_mpy_firmware_does_not(tmp_path,
     if frozen:
         need("rp2-pico-frozen")
     from desktop.devicesim.pico_board import PicoBoard
+    from desktop.devicesim.pico_flash import flash_with
     from desktop.link import LinkError, open_device
 
     disk = str(tmp_path / "disk")
     flash_files(disk, frozen)
+    flash_with(str(tmp_path / "pico.flash"), disk, at="/")    # as a deploy leaves them (test_pico_laptop)
     with PicoBoard(str(tmp_path / "pico.flash"), idle="jump", frozen=frozen) as board:
-        mpremote(board.port, "cp", "-r", disk + "/.", ":")
-        n = len(board.events)
-        mpremote(board.port, "reset")                  # a power-up: boot.py, then main.py
-        board.wait_event("boot (watchdog)", after=n)
+        board.wait_event("boot (power on)")                     # boot.py, then main.py
         if frozen:
             dev = open_device(board.port, timeout=30.0)
             try:

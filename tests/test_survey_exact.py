@@ -185,19 +185,20 @@ def test_survey_output_in_c_is_the_pure_ones(name, job, cpython, root):
 def test_survey_output_in_c_on_the_emulated_pico(job, cpython, tmp_path):
     """The same on the emulated Pico (armv6m fitsums.mpy, 31-bit small ints): a realistic, an
     adversarial (window 64: its blocks' sums past a small int, correct in Python) and a board's
-    record, CPython's lines to the digit. The modules are copied once (mpremote's copy is most of
-    a run's time) and each case runs after its own soft reset."""
+    record, CPython's lines to the digit. The modules are in the flash's filesystem before it boots
+    (desktop/devicesim/pico_flash.py) and each case runs after its own soft reset."""
     need("rp2-pico")
     from desktop.bench.pico_survey import _disk
     from desktop.devicesim.pico_board import PicoBoard
+    from desktop.devicesim.pico_flash import flash_with
     path, cases = job
     disk = tmp_path / "disk"
     _disk(str(disk), REPO, cases[0], script=SCRIPT)
     for i in PICO_CASES:
         (disk / ("job%d.json" % i)).write_text(json.dumps(cases[i]))
     mpremote = [sys.executable, "-m", "mpremote", "connect"]
+    flash_with(str(tmp_path / "pico.flash"), str(disk))
     with PicoBoard(str(tmp_path / "pico.flash")) as board:
-        subprocess.run(mpremote + [board.port, "cp", "-r", str(disk), ":"], check=True, capture_output=True, timeout=600)
         for i in PICO_CASES:
             run = ("import os, sys; os.rename('/disk/job%d.json', '/disk/job.json'); "
                    "sys.path.insert(0, '/disk'); import pico_survey" % i)
