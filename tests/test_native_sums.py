@@ -82,12 +82,12 @@ def test_native_sums_equal_the_pure_python_ones(name, reference, micropython):
 def on_the_emulated_pico(tmp_path, script, module="fitsums", sources=None):
     """The armv6m build of `module` on the rp2 firmware (Cortex-M0+, 31-bit small ints): `sources`
     (repository paths; shared/ by default) and `script` as .mpy from the Pico's own mpy-cross, in
-    its flash's filesystem at /disk before it boots (desktop/devicesim/pico_flash.py: mpremote's
+    its flash's filesystem at /disk before it boots (tests/pico_flash.py: mpremote's
     copy was a third of a run; not mounted: mount's 1 s poll times out when this machine is
     loaded): what script.main('/disk', '/disk') prints."""
     need("rp2-pico")
     from desktop.devicesim.pico_board import PicoBoard
-    from desktop.devicesim.pico_flash import flash_with
+    from tests.pico_flash import flash_with
     from desktop.firmware.interpreters import pico_parts
     from desktop.firmware.natmod import natmod_path
 

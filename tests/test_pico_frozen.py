@@ -63,7 +63,7 @@ def test_the_frozen_firmware_boots_in_a_heap_the_mpy_firmware_does_not(tmp_path,
     if frozen:
         need("rp2-pico-frozen")
     from desktop.devicesim.pico_board import PicoBoard
-    from desktop.devicesim.pico_flash import flash_with
+    from tests.pico_flash import flash_with
     from desktop.link import LinkError, open_device
 
     disk = str(tmp_path / "disk")

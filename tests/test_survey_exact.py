@@ -186,11 +186,11 @@ def test_survey_output_in_c_on_the_emulated_pico(job, cpython, tmp_path):
     """The same on the emulated Pico (armv6m fitsums.mpy, 31-bit small ints): a realistic, an
     adversarial (window 64: its blocks' sums past a small int, correct in Python) and a board's
     record, CPython's lines to the digit. The modules are in the flash's filesystem before it boots
-    (desktop/devicesim/pico_flash.py) and each case runs after its own soft reset."""
+    (tests/pico_flash.py) and each case runs after its own soft reset."""
     need("rp2-pico")
     from desktop.bench.pico_survey import _disk
     from desktop.devicesim.pico_board import PicoBoard
-    from desktop.devicesim.pico_flash import flash_with
+    from tests.pico_flash import flash_with
     path, cases = job
     disk = tmp_path / "disk"
     _disk(str(disk), REPO, cases[0], script=SCRIPT)

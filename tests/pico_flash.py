@@ -1,6 +1,7 @@
-"""The emulated Pico's flash file made on the host, with files already in its filesystem.
+"""The emulated Pico's flash file made on the host, with files already in its filesystem (the
+tests' set-up; littlefs-python is a test dependency, not the wheel's).
 
-    from desktop.devicesim.pico_flash import flash_with
+    from tests.pico_flash import flash_with
     flash_with("out/pico.flash", "out/disk")     # out/disk/* at /disk on the board
     with PicoBoard("out/pico.flash") as board:    # boots with them in place
         ...
