@@ -54,7 +54,8 @@ def reference():
 @pytest.fixture(scope="module")
 def board_reference():
     """The emulated Pico runs every stream a quarter as long, a third of the edges, the disturbed
-    ones from sample 1300 to 1900 (native_gatesc.py SHORT_FLOATS)."""
+    ones from sample 1300 to 1900 (native_gatesc.py SHORT_FLOATS), and its integer scenarios
+    through the native gates alone: their checksums of every verdict and state are these."""
     return _reference("short")
 
 
