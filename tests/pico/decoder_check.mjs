@@ -20,7 +20,9 @@ const { SimulationClock } = await esm('clock/simulation-clock.js');
 const { MAX_HARDWARE_IRQ } = await esm('irq.js');
 const { APB_START_ADDRESS, SIO_START_ADDRESS } = await esm('rp2040.js');
 const here = path.dirname(new URL(import.meta.url).pathname);
-const { indexedCore } = await import(pathToFileURL(path.join(here, '..', '..', 'desktop', 'devicesim', 'pico', 'decoder.mjs')).href);
+const pico = (file) => import(pathToFileURL(path.join(here, '..', '..', 'desktop', 'devicesim', 'pico', file)).href);
+const { indexedCore } = await pico('decoder.mjs');
+const { patchedBootrom, flashOp } = await pico('bootrom.mjs');  // as runner.mjs: the flash writable
 const coreFile = path.join(modules, 'rp2040js', 'dist', 'esm', 'cortex-m0-core.js');
 const indexed = indexedCore(coreFile, { MAX_HARDWARE_IRQ, APB_START_ADDRESS, SIO_START_ADDRESS });
 
@@ -42,19 +44,7 @@ for (let op = 0; op < 0x10000; op++) {
 }
 
 // 2. two chips in step
-function patchedBootrom() {             // as runner.mjs: the flash functions as breakpoints
-  const rom = Buffer.from(fs.readFileSync(bootromFile));
-  for (let p = rom.readUInt16LE(0x14); rom.readUInt16LE(p) !== 0; p += 4) {
-    const code = String.fromCharCode(rom[p], rom[p + 1]);
-    if (code === 'RE' || code === 'RP') {
-      const fn = rom.readUInt16LE(p + 2) & ~1;
-      rom.writeUInt16LE(0xbe00 | (code === 'RE' ? 1 : 2), fn);
-      rom.writeUInt16LE(0x4770, fn + 2);
-    }
-  }
-  return new Uint32Array(rom.buffer, rom.byteOffset, rom.length / 4);
-}
-const rom = patchedBootrom();
+const rom = patchedBootrom(bootromFile);
 const image = new Uint8Array(2 * 1024 * 1024).fill(0xff);
 image.set(fs.readFileSync(firmware), 0);
 console.warn = () => {};
@@ -68,11 +58,7 @@ function chip(execute) {
   mcu.core.PC = 0x10000000;
   if (execute) mcu.core.executeInstruction = execute;
   const flash = mcu.flash;
-  mcu.onBreak = (code) => {
-    const r = mcu.core.registers;
-    if (code === 1) flash.fill(0xff, r[0], r[0] + r[1]);
-    else if (code === 2) for (let i = 0; i < r[2]; i++) flash[r[0] + i] &= mcu.readUint8(r[1] + i);
-  };
+  mcu.onBreak = (code) => flashOp(mcu, flash, code);
   const cdc = new USBCDC(mcu.usbCtrl);
   const board = { mcu, clock, out: '', typed: false, cycleNs: 8 };
   cdc.onSerialData = (bytes) => { board.out += Buffer.from(bytes).toString('latin1'); };

@@ -28,7 +28,7 @@
 //  6. Speed (decoder.mjs): the core's instruction decode indexed by the opcode's top five bits and
 //     SRAM stores before the peripheral lookup; the same instructions and cycles, 1.2-1.3x faster.
 // The flash is made writable by patching the boot ROM's flash_range_erase / flash_range_program
-// to BKPT and doing the erase (fill 0xff) and program (AND, as NOR flash) in onBreak.
+// to BKPT and doing the erase (fill 0xff) and program (AND, as NOR flash) in onBreak (bootrom.mjs).
 import fs from 'node:fs';
 import path from 'node:path';
 import { pathToFileURL } from 'node:url';
@@ -40,7 +40,6 @@ const CYCLE_NS = 8;                      // 125 MHz: clk_sys until the firmware 
 const BATCH = 20000;                     // instructions between looks at the host and the wall clock
 const SLICE_MS = 20;                     // longest run without yielding to Node (host bytes, signals)
 const LAG_NS = 50e6;                     // paced: emulated time may trail the wall clock by this much
-const BKPT_ERASE = 0x01, BKPT_PROGRAM = 0x02;
 
 const args = Object.fromEntries(process.argv.slice(2).reduce((acc, a, i, all) =>
   (a.startsWith('--') ? acc.concat([[a.slice(2), all[i + 1]]]) : acc), []));
@@ -51,6 +50,7 @@ const { RP2040, USBCDC } = await esm('index.js');
 const { SimulationClock } = await esm('clock/simulation-clock.js');
 const { WorldBridge } = args.world ? await import('./pins.mjs') : {};
 const { Parts } = await import('./parts.mjs');
+const { patchedBootrom, flashOp: flashWrite } = await import('./bootrom.mjs');
 const { RPPIO } = await esm('peripherals/pio.js');
 const { GPIOPin } = await esm('gpio-pin.js');
 const { CortexM0Core } = await esm('cortex-m0-core.js');
@@ -96,24 +96,8 @@ function saveSoon() {                    // one save per batch of erases/program
   if (!saveTimer) saveTimer = setTimeout(saveFlash, 100);
 }
 
-// ****** the boot ROM, its flash write functions turned into breakpoints ******
-function patchedBootrom() {
-  const rom = Buffer.from(fs.readFileSync(args.bootrom));
-  const table = rom.readUInt16LE(0x14);  // rom_func_table: (code, address) pairs of uint16, 0-ended
-  const want = { RE: BKPT_ERASE, RP: BKPT_PROGRAM };
-  for (let p = table; rom.readUInt16LE(p) !== 0; p += 4) {
-    const code = String.fromCharCode(rom[p], rom[p + 1]);
-    if (code in want) {
-      const fn = rom.readUInt16LE(p + 2) & ~1;  // Thumb bit off
-      rom.writeUInt16LE(0xbe00 | want[code], fn);  // BKPT #n
-      rom.writeUInt16LE(0x4770, fn + 2);            // BX LR
-      delete want[code];
-    }
-  }
-  if (Object.keys(want).length) throw new Error(`boot ROM ${args.bootrom} lacks ${Object.keys(want)}`);
-  return new Uint32Array(rom.buffer, rom.byteOffset, rom.length / 4);
-}
-const bootrom = patchedBootrom();
+// ****** the boot ROM, its flash write functions turned into breakpoints (bootrom.mjs) ******
+const bootrom = patchedBootrom(args.bootrom);
 
 // ****** the host's bytes, held until the board arms a USB OUT buffer (thing 1) ******
 const fromHost = [];                     // Buffers not yet handed to the board
@@ -188,16 +172,9 @@ function createChip(why) {
   if (world) world.attach(mcu, clock);
 }
 
-// the boot ROM's flash_range_erase(addr, count, block_size, cmd) and
-// flash_range_program(addr, data, count), called with r0.. as arguments; addr is a flash offset
+// a breakpoint: the boot ROM's flash_range_erase or _program done (bootrom.mjs), saved soon after
 function flashOp(code) {
-  const r = mcu.core.registers;
-  if (code === BKPT_ERASE) {
-    flash.fill(0xff, r[0], r[0] + r[1]);
-  } else if (code === BKPT_PROGRAM) {
-    const [addr, data, count] = [r[0], r[1], r[2]];
-    for (let i = 0; i < count; i++) flash[addr + i] &= mcu.readUint8(data + i);
-  } else {
+  if (!flashWrite(mcu, flash, code)) {
     say(`breakpoint ${code} at 0x${(mcu.core.PC - 2).toString(16)}: the firmware stopped`);
     return;
   }
