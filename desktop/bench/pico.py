@@ -3,6 +3,7 @@ at 125 MHz (desktop/devicesim/pico_handheld.py), every load figure in emulated c
 
     python -m desktop.bench.pico [--window 10]      # about 6-10 min on a 2-core machine
     python -m desktop.bench.pico --frozen           # the image with the firmware frozen in (make pico-frozen)
+    python -m desktop.bench.pico --status-every 1000   # no status request inside a window
 
 What, on one emulated Pico (idle time jumped, the operator following the LED):
 - deploy: `fluxcal deploy`'s code (.mpy for armv6m; with --frozen the rp2-pico-frozen image, whose
@@ -13,7 +14,9 @@ What, on one emulated Pico (idle time jumped, the operator following the LED):
 - CPU load: cycles awake / cycles in each window, from the runner's count of the cycles the core
   slept (WFI/WFE); DRDY to read: emulated time from DRDY's fall to the first SCLK of chip 0's read,
   mean and worst; missed conversions and ring overflows: the firmware's own counts (status);
-- heap: status's mem_free after boot, at the end of each window and its lowest sample in it;
+- heap: status's mem_free after boot, at the end of each window and its lowest sample in it
+  (a sample every --status-every board s, 2.5 by default: each request is firmware work, counted
+  in the window's load like any other);
 - the load by part: the same session again with the firmware started from the REPL by
   micropython-scripts/pico_parts.py, which names the part that runs on the runner's profiling
   port (desktop/devicesim/pico/parts.mjs); the DRDY handler (PIO0's interrupt, on the conversions
@@ -35,7 +38,7 @@ import time
 import serial
 
 from desktop.bench import pico_compare
-from desktop.bench.pico_session import Session, configure
+from desktop.bench.pico_session import SAMPLE_S, Session, configure
 from desktop.devicesim.pico_handheld import PicoHandheld
 
 CYCLE_NS = 8          # 125 MHz
@@ -157,7 +160,7 @@ def _profiled_firmware(hh, dev):
     return open_device(hh.port, timeout=120)
 
 
-def pico_run(window_s, log, frozen=False):
+def pico_run(window_s, log, frozen=False, status_every=SAMPLE_S):
     from desktop.firmware.deploy import MicroPythonDeploy, firmware_version
     from desktop.link import DeviceError, open_device, wait_for_version
 
@@ -181,7 +184,7 @@ def pico_run(window_s, log, frozen=False):
                     dev = _profiled_firmware(hh, dev)
                 log("%s session" % name)
                 try:
-                    got = Session(dev, runner.clock, hh.act, runner.figures).run(window_s)
+                    got = Session(dev, runner.clock, hh.act, runner.figures, status_every).run(window_s)
                 except DeviceError as e:
                     # the profiled firmware (its wrappers in the heap) can be refused start-cal for
                     # no_memory: the plain run's figures stand, without the split by part
@@ -223,6 +226,9 @@ def main(argv=None):
                    help="emulated seconds each window lasts (default 10: two provisional solves)")
     p.add_argument("--frozen", action="store_true",
                    help="the image with the firmware frozen in (make pico-frozen) instead of .mpy files")
+    p.add_argument("--status-every", type=float, default=SAMPLE_S, metavar="S",
+                   help="board seconds between the status samples in a window (default %(default)s; past the"
+                        " window: none, and no lowest heap sample)")
     args = p.parse_args(argv)
     t0 = time.time()
 
@@ -232,13 +238,15 @@ def main(argv=None):
     # the Cortex-M3 counts (qemu, deterministic) meanwhile: they share the cores, not the figures
     counting = threading.Thread(target=lambda: m3.update(pico_compare.m3_counts()), daemon=True)
     counting.start()
-    pico = pico_run(args.window, log, args.frozen)
+    pico = pico_run(args.window, log, args.frozen, args.status_every)
     mp = micropython_spin(args.window, log)
     counting.join()
     pico_compare.print_tables(pico, mp, m3.get("firmware"))
+    options = (" --frozen" if args.frozen else "") + (
+        "" if args.status_every == SAMPLE_S else " --status-every %g" % args.status_every)
     print("\n(command: python -m desktop.bench.pico --window %g%s; %.0f s; host load average %.1f: the wall"
-          " figures scale with it, the cycle figures do not)" % (args.window, " --frozen" if args.frozen else "",
-                                                               time.time() - t0, os.getloadavg()[0]))
+          " figures scale with it, the cycle figures do not)" % (args.window, options, time.time() - t0,
+                                                               os.getloadavg()[0]))
     return 0
 
 

@@ -17,13 +17,14 @@ sampled (garbage not yet collected counts as used).
 import time
 
 SETTLE_S = 1.0        # board seconds after an operator's change before a window opens
-SAMPLE_S = 2.5        # board seconds between status samples (each costs the firmware ~1.5 M cycles)
+SAMPLE_S = 2.5        # board seconds between status samples (each costs the firmware 3-7 M cycles: benchmarks.md)
 DRAIN_S = 5.0         # wall seconds at most spent reading the blocks from before the survey window
 
 
 class Session:
-    def __init__(self, dev, clock, act, figures=None):
+    def __init__(self, dev, clock, act, figures=None, sample_s=SAMPLE_S):
         self.dev = dev
+        self.sample_s = sample_s      # board s between status samples (past the window: none in it)
         self.clock = clock            # () -> the board's seconds
         self.act = act                # act(action): the operator (virtual_handheld.ACTIONS)
         self.figures = figures        # (start=False) -> the runner's figures (pico.Runner), or None
@@ -33,11 +34,11 @@ class Session:
         now = self.clock()
         end = now + seconds
         samples = []
-        nxt = now + SAMPLE_S
+        nxt = now + self.sample_s
         while now < end:
             if now >= nxt:
                 samples.append(self.dev.ask("status", timeout=120))
-                nxt += SAMPLE_S
+                nxt += self.sample_s
             time.sleep(0.2)
             now = self.clock()
         return samples
