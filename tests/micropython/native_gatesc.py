@@ -8,7 +8,8 @@
 # batches' open and left counts (gatesc.c keeps them) must be the same; after each scenario the
 # coverage counts, the hist ring, the fit's sums and the residual batches' counts and float
 # sums too. A board (short) runs its integer scenarios through the native Gates alone: their
-# every verdict and state goes into the checksum compared with CPython's pure-Python gates. Scenarios: a slow spiral (nearly all taken, then full cells), a hand's turns and
+# every verdict and state goes into the checksum compared with CPython's pure-Python gates.
+# Scenarios: a slow spiral (nearly all taken, then full cells), a hand's turns and
 # reversals at a slow gate (stride > 1: rate rejections), random sums over the whole range,
 # the cells' boundaries (face edges, ties, cuts and a unit either side, zero components) and
 # the +-2**23 extremes, a centre that puts shifted sums past the C words (+-2**15), sums past
