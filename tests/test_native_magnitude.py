@@ -31,8 +31,7 @@ from tests.test_native_sums import (LOADS_NATMODS, _need_natmod, on_the_emulated
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(REPO, "tests", "micropython", "native_magnitude.py")
-# what the script imports (modulefinder's closure of it): fixedpoint and the random ints; on the
-# emulated Pico each file more is a second more of mpremote's copy
+# what the script imports (modulefinder's closure of it): fixedpoint and the random ints
 SOURCES = ["shared/__init__.py", "shared/fixedpoint.py", "tests/micropython/lcg.py"]
 PATHS = ["real"] * 5 + ["adversarial"] * 3 + ["top"] * 2      # then wide_c and wide_w: always python
 
