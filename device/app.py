@@ -41,6 +41,8 @@ are screened out (screen.py); boots that never become healthy bring the next
 one up in safe mode (bootguard.py).
 """
 
+import gc
+
 import bootguard
 import commands
 import config as cfgmod
@@ -60,6 +62,28 @@ _HOUSE_MS = 20   # a pass every 20 ms: button (debounce is 30 ms), serial, LED, 
 # board.busy keys: the main loop's work, charged as simulated time by the simulated board
 _SAMPLE_CAL = "sample_cal"
 _SAMPLE = "sample"
+# The solver's float kernels (linalgc.mpy: 6.4 KB of code on an RP2040, resident once loaded) are taken only
+# where this much heap is free as the app is built: the frozen image on a Pico (its bytecode in flash). Not the
+# .mpy firmware there (137 KB free here once collected, a session's ~42 KB of bytecode still to come; its quick
+# finishes already find little room, docs/limits.md), nor a 100 KB heap (~60 KB here), where the frozen image
+# calibrates without them and not with them (python -m desktop.bench.heap_pico --frozen --kb 100).
+_KERNELS_FREE = 150 * 1024
+
+
+def native_paths():
+    """[sums, linalg, gates]: "native" or "python" (`status`). The native modules a session uses are imported
+    here, at boot, and stay: rp2 keeps every load of one (py/persistentcode.c). The float kernels only with the
+    room above, counted before a collection (one here moves where the boot's and the sessions' blocks land); a
+    session installs them (shared/linalg_native.py), which never imports them itself."""
+    paths = {"linalgc": "python"}
+    room = not hasattr(gc, "mem_free") or gc.mem_free() >= _KERNELS_FREE
+    for name in ("gatesc", "fitsums", "linalgc") if room else ("gatesc", "fitsums"):
+        try:   # linalgc's kind() is None where the interpreter's floats are not its own
+            m = __import__(name)
+            paths[name] = "python" if name == "linalgc" and m.kind() is None else "native"
+        except (ImportError, ValueError):   # ValueError: a .mpy of another arch or version
+            paths[name] = "python"
+    return [paths["fitsums"], paths["linalgc"], paths["gatesc"]]
 
 
 class App:
@@ -83,6 +107,7 @@ class App:
         self.acq = acq = Acquisition(board, self.cfg["decim"], self.cfg["window"])
         self.supervisor = sup = AdcSupervisor(board, proto, led, acq)
         self.flow = flow = CalibrationFlow(board, proto, led, self.output, self.guard, sup, FIRMWARE_VERSION)
+        flow.paths = native_paths()
         self.guard.flow = flow            # a loop error ends a session; safe mode drops the calibration
         sup.flow = flow                   # a fault ends a session
         sup.on_cleared = self._setup_pipeline

@@ -38,17 +38,6 @@ HIST_BYTES = 5 * 4 * 256      # gates.py's hist (5 ints x HIST), a session's lar
 _UNLOAD = sys.implementation.name != "cpython"
 
 
-def sums_path():
-    """Which sums the fit runs, "native" (fitsums.mpy) or "python", as shared/fit.py decides: `status` at boot. The
-    native modules a session imports stay resident from here: rp2 keeps every load of one (py/persistentcode.c)."""
-    for name in ("gatesc", "fitsums"):      # fitsums last: shared/fit.py's test, its import says the path
-        try:
-            path = __import__(name) and "native"
-        except (ImportError, ValueError):   # ValueError: a .mpy of another arch or version
-            path = "python"
-    return path
-
-
 class CalibrationFlow:
     def __init__(self, board, proto, led, output, guard, supervisor, firmware):
         self.board = board
@@ -70,7 +59,7 @@ class CalibrationFlow:
         self.held = None          # a full calibration predicted worse than the one in force (keep-cal)
         self._diff = board.ticks_diff
         self._resident = None     # sys.modules before the session in progress imported its own
-        self._sums_path = sums_path()
+        self.paths = ["python", "python", "python"]   # app.py's native_paths(): the fit's sums, the float kernels
         self.service = None       # app.py: the ring drained, the watchdog fed (between the finish's solves)
 
     def load(self):
@@ -154,7 +143,10 @@ class CalibrationFlow:
         from shared.fit import SUMS_PATH
         room = None
         gc.collect()
-        self._sums_path = SUMS_PATH
+        self.paths[0] = SUMS_PATH
+        if self.paths[1] == "native":   # the float kernels app.py loaded, for this session's shared.linalg
+            from shared import linalg_native
+            linalg_native.install()
         self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind, hold,
                                self.board.polls_drdy)
         self.output.session = self.session
@@ -393,7 +385,8 @@ class CalibrationFlow:
             "cal_kind": cal.meta.get("kind", FULL) if cal is not None else None,
             "tempco_range": cal.tempco["range_c"] if cal is not None and cal.tempco else None,
             "last_cal": self.last_result,
-            "sums": self._sums_path,    # the fit's sums: "native" (fitsums.mpy) or "python"
+            # the fit's sums and the solver's float kernels: "native" (fitsums.mpy, linalgc.mpy) or "python"
+            "sums": self.paths[0], "linalg": self.paths[1],
         }
         if self.session is not None:
             out["cal"] = self.session.progress()

@@ -35,7 +35,7 @@ elif options.runtime == "sim":
 # shipped: warmup.py and moved.py (coefficients from one long warm-up, which the firmware does
 # not fit). tests/test_firmware_files.py checks this list against what the firmware imports.
 package("shared", files=["__init__.py", "calibration.py", "codes.py", "coverage.py", "delag.py", "errors.py",
-                         "fit.py", "fixedpoint.py", "honest.py", "iteration.py", "linalg.py", "moments.py", "predicted.py", "prior.py",
+                         "fit.py", "fixedpoint.py", "honest.py", "iteration.py", "linalg.py", "linalg_native.py", "moments.py", "predicted.py", "prior.py",
                          "quadric.py",
                          "quick.py", "response.py", "result.py", "solver.py", "start.py", "tausums.py", "tempco.py"],
         base_path="..", opt=3)

@@ -41,7 +41,7 @@ _LONG_FIRST = (
     "test_pico_laptop.py", "test_native_gatesc.py", "test_survey_exact.py", "test_native_magnitude.py",
     "test_laptop_chain.py", "test_native_gates.py", "test_survey_record.py", "test_pico_frozen.py",
     "test_deploy_wheel.py", "test_native_delag.py", "test_native_drdy.py", "test_native_drain.py",
-    "test_cli_device.py", "test_native_sums.py", "test_cli_experiment.py", "test_deploy.py",
+    "test_cli_device.py", "test_native_sums.py", "test_native_linalg.py", "test_cli_experiment.py", "test_deploy.py",
     "test_device_survey_day.py", "test_cli.py", "test_pico_decoder.py", "test_device_slow_sensor.py",
     "test_native_screen.py",
 )

@@ -12,7 +12,7 @@ from tests.device_session import ask, boot
 ALWAYS = {"v", "ok", "cmd", "state", "fault", "fault_code", "safe_mode", "errors", "last_error", "calibrated",
           "cal_source", "cal_problem", "config_problems", "stream", "uptime_ms", "temp", "temp_warn", "cal_kind",
           "tempco_range", "last_cal", "frames", "overflow", "missed", "badsync", "discarded", "gaps", "samples",
-          "spikes", "clipped", "screen", "delag_us", "delag", "sums", "magnitude", "drdy", "drdy_counter", "reader", "sample",
+          "spikes", "clipped", "screen", "delag_us", "delag", "sums", "linalg", "magnitude", "drdy", "drdy_counter", "reader", "sample",
           "unfinished_boots",
           "watchdog_reset", "watchdog_ms"}
 # the ADC's run-time health exists once the chips answered at boot
@@ -28,7 +28,7 @@ def test_survey_reply(tmp_path):
         s = ask(w, dev, "status")
         assert set(s) == ALWAYS | HEALTH
         assert (s["state"], s["fault"], s["calibrated"], s["stream"], s["errors"]) == ("survey", None, False, "off", 0)
-        assert s["sums"] == "python"     # CPython loads no native module
+        assert (s["sums"], s["linalg"]) == ("python", "python")    # CPython loads no native module
         assert s["drdy"] == "python"     # ... and the simulator's HAL has no drdy_bus
         assert s["drdy_counter"] is None  # ... nor a counter of DRDY (rp2's PIO)
         assert s["screen"] == "python"   # ... nor the spike screen's push

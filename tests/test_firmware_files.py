@@ -32,7 +32,7 @@ BUILTIN = {
 }
 # imported where present, guarded by try/except: the native modules deploy adds for a MicroPython
 # board whose architecture has a build (desktop/firmware/natmod.py), not a file of the list
-OPTIONAL = {"fitsums", "drdy", "screenc", "delagc", "gatesc"}
+OPTIONAL = {"fitsums", "drdy", "screenc", "delagc", "gatesc", "linalgc"}
 
 
 def _imports(path):

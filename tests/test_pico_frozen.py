@@ -116,6 +116,6 @@ def test_deploy_onto_the_frozen_image_installs_only_what_the_image_lacks(tmp_pat
         finally:
             dev.close()
         # the native modules went on (the image has none of its own) and run; the stale module went
-        assert [st[k] for k in ("sums", "drdy", "screen", "reader", "sample")] == ["native"] * 5, st
+        assert [st[k] for k in ("sums", "drdy", "screen", "reader", "sample", "linalg")] == ["native"] * 6, st
         listed = mpremote(board.port, "fs", "ls", ":lib")
         assert "app.mpy" not in listed and all("%s.mpy" % m in listed for m in natives), listed

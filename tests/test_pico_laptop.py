@@ -163,6 +163,7 @@ def test_the_laptop_commands_a_power_cycle_and_the_watchdog_on_the_emulated_pico
         # |h_c|, the DRDY handler (a hard IRQ calling the HAL's Pins and SPI read) and the spike
         # screen's push run in C; so do the ring's reader and the output's sample (drdy.Drain, drdy.Sample)
         assert (st["sums"], st["magnitude"], st["drdy"], st["screen"]) == ("native",) * 4, st
+        assert st["linalg"] == "python", st     # the float kernels: not beside the .mpy firmware's heap (app.py)
         assert (st["reader"], st["sample"]) == ("native",) * 2, st
         # a PIO state machine counts the 3 conversions of every 5 the boxcar does not read; the
         # handler accounts them: a block's 5 conversions for each sample read (and the ring's

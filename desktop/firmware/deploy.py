@@ -15,7 +15,7 @@ subprocess `python -m mpremote connect PORT ...`, as a person would type it:
 2. mpy-cross compiles for the board's .mpy version and arch (with --mpy); the native modules
    (desktop/firmware/natmod.py: fitsums.mpy, the fit's sums; drdy.mpy, the DRDY handler;
    screenc.mpy, the spike screen's push; delagc.mpy, the de-lag's; gatesc.mpy, the calibration
-   gates') join the files where built
+   gates'; linalgc.mpy, the solver's float kernels) join the files where built
    for that arch and version;
 3. `fs mkdir` the staging folder .fluxcal-new/, then `fs cp` the files into it;
 4. `run swap.py` (on-board/): renames the staged files into place, undone if one fails;
@@ -50,7 +50,8 @@ MPY_DIR = "MPY"          # in a dry run, the temporary folder of the compiled fi
 # the native modules (desktop/firmware/natmod.py), where the board's arch has them
 NATIVES = tuple("lib/%s.mpy" % module for module in MODULES)
 NATIVE_SAYS = {"fitsums": "native sums", "drdy": "native DRDY handler",    # in deploy's line
-               "screenc": "native spike screen", "delagc": "native de-lag", "gatesc": "native gates"}
+               "screenc": "native spike screen", "delagc": "native de-lag", "gatesc": "native gates",
+               "linalgc": "native float kernels"}
 REMOVE = ".fluxcal-remove"       # in the staging folder: what swap.py removes (the files no longer deployed)
 
 Board = collections.namedtuple("Board", "name mpy block free leftovers frozen")

@@ -1,7 +1,8 @@
 """The firmware's native modules (device/native/*.c) as .mpy files, one per module and architecture:
 fitsums.c the fit's sums and the survey's |h_c|, drdy.c the DRDY handler, screenc.c the common
 path of the spike screen's push (device/screen.py), delagc.c the de-lag's (shared/delag.py),
-gatesc.c the calibration gates' sample (device/gates.py).
+gatesc.c the calibration gates' sample (device/gates.py), linalgc.c the solver's float kernels
+(shared/linalg.py).
 
     python -m desktop.firmware.natmod build        # build what is missing (cached in build/)
     natmod_path("armv6m")                          # build/interpreters/natmod/<sources>/armv6m/fitsums.mpy, or None
@@ -12,7 +13,8 @@ Built with MicroPython's native-module tooling (py/dynruntime.mk, tools/mpy_ld.p
 rp2 source tree in ../shared/rp2, the same v1.28.0 as the emulated Pico, so the files are
 .mpy v6.3: what the pip `micropython`, the unix builds here and the Pico load. mpy_ld needs
 pyelftools (the test extra), the Arm ones arm-none-eabi-gcc, x86 gcc -m32. CircuitPython
-loads no MicroPython .mpy and keeps the pure-Python sums, handler, screen, de-lag and gates.
+loads no MicroPython .mpy and keeps the pure-Python sums, handler, screen, de-lag, gates and linear
+algebra.
 """
 
 import glob
@@ -29,8 +31,9 @@ SHARED = os.path.join(os.path.dirname(REPO), "shared")
 BUILD = os.path.join(REPO, "build", "interpreters", "natmod")
 SOURCE = os.path.join(REPO, "device", "native")
 MODULE = "fitsums"                 # the fit's sums and the survey's |h_c|
-# and the DRDY handler, the spike screen, the de-lag, the gates (device/native/<name>.c)
-MODULES = (MODULE, "drdy", "screenc", "delagc", "gatesc")
+# and the DRDY handler, the spike screen, the de-lag, the gates, the solver's linear algebra
+# (device/native/<name>.c)
+MODULES = (MODULE, "drdy", "screenc", "delagc", "gatesc", "linalgc")
 # the architectures built: x64 the 64-bit unix ports, x86 the 32-bit one (micropython-reprc),
 # armv6m the RP2040's Cortex-M0+, armv7m Cortex-M3 boards (qemu-m3)
 ARCHS = ("x64", "x86", "armv6m", "armv7m")

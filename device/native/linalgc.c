@@ -1,0 +1,176 @@
+// linalgc: shared/linalg.py's cholesky, cho_solve, solve_spd and eigh3 in C (a MicroPython native
+// module, .mpy), for the solver's float work on a board (shared/solver.py: the step direction, the
+// initial guesses, the predicted error; a provisional solve spends a third of its cycles in them
+// on an RP2040, every float operation a heap allocation there).
+//
+//     import linalgc
+//     linalgc.kind()                 # "f", "d": the interpreter's floats, which this build matches; None
+//     linalgc.cholesky(a)            # L (lists), or None
+//     linalgc.cho_solve(low, b)      # x, or None
+//     linalgc.solve_spd(a, b)        # x, or None
+//     linalgc.eigh3(s)               # (values, vectors), or None
+//
+// Word for word shared/linalg.py's, in the interpreter's own float: the same operations in the same
+// order, each rounded once as MicroPython rounds it (IEEE 754 binary32 or binary64, round to nearest
+// even; no fused multiply-add: -ffp-contract=off; sqrt correctly rounded on both sides: the Pico's
+// math.sqrt is lib/libm's ef_sqrt.c, this module's newlib's sqrtf, the same fdlibm algorithm, and on
+// x64 the sqrtss/sqrtsd instructions). kind() says which: a build has binary32 ("f", every
+// architecture) and binary64 ("d", x64 only); a 30-bit float (micropython-reprc, its last two bits
+// cut at every operation) or an x87 build (x86) matches neither, and None sends every call to Python.
+// None too for any input the Python might treat otherwise (not a list of lists of floats, a size past
+// N_MAX, an infinity or nan) and for what Python raises on (a pivot not positive, a zero divisor):
+// shared/linalg.py then runs its own code, which raises or returns as it always did.
+
+#include "py/dynruntime.h"
+
+#define N_MAX (12)
+
+// (not static: mpy_ld places no static variable in bss)
+const mp_obj_type_t *float_type;
+int kind_in_use;
+bool flush_subnormals;      // the interpreter's float operations flush subnormal results to zero
+
+// n from a list or tuple (its items in *items), or 0
+static inline size_t items_of(mp_obj_t o, mp_obj_t **items) {
+    const mp_obj_type_t *t = mp_obj_get_type(o);
+    if (t != &mp_type_list && t != &mp_type_tuple) {
+        return 0;
+    }
+    size_t n;
+    mp_obj_get_array_dyn(o, &n, items);
+    return n <= N_MAX ? n : 0;
+}
+
+#if defined(__i386__)
+#define HAS_FLOAT (0)       // x87: a float held in 80 bits between operations (kind() None)
+#else
+#define HAS_FLOAT (1)
+#if defined(__arm__)
+float __ieee754_sqrtf(float);   // newlib's ef_sqrt.c itself: its sqrtf wrapper brings errno's data along
+#define RSQRT(x) __ieee754_sqrtf(x)
+#else
+#define RSQRT(x) __builtin_sqrtf(x)
+#endif
+#define REAL float
+#define RUINT uint32_t
+#define RNAME(name) name##_f
+#define RABS(x) __builtin_fabsf(x)
+#define RGET(o) mp_obj_get_float_to_f(o)
+#define RNEW(x) mp_obj_new_float_from_f(x)
+#include "linalg_body.h"
+#undef REAL
+#undef RUINT
+#undef RSIGN
+#undef RNAME
+#undef RSQRT
+#undef RABS
+#undef RGET
+#undef RNEW
+#endif
+
+#if defined(__x86_64__)
+#define HAS_DOUBLE (1)
+#define REAL double
+#define RUINT uint64_t
+#define RNAME(name) name##_d
+#define RSQRT(x) __builtin_sqrt(x)
+#define RABS(x) __builtin_fabs(x)
+#define RGET(o) mp_obj_get_float_to_d(o)
+#define RNEW(x) mp_obj_new_float_from_d(x)
+#include "linalg_body.h"
+#else
+#define HAS_DOUBLE (0)
+#endif
+
+// the interpreter's float: 'd' binary64, 'f' binary32 (all of its 24 bits kept), else 0; bits
+// compared as integers, so no double arithmetic is linked where there is none (armv6m)
+static int interpreter_kind(void) {
+    union { double d; uint64_t u; } in, out;
+    in.d = 1.0 + 0x1p-40;
+    out.d = mp_obj_get_float_to_d(mp_obj_new_float_from_d(in.d));
+    if (out.u == in.u) {
+        return 'd';
+    }
+    union { float f; uint32_t u; } fin, fout;
+    fin.f = 1.0f + 0x1p-23f;
+    fout.f = mp_obj_get_float_to_f(mp_obj_new_float_from_f(fin.f));
+    return fout.u == fin.u ? 'f' : 0;
+}
+
+// whether the interpreter's own float operations flush a subnormal result to zero (the RP2040's ROM
+// floats) or keep it (IEEE 754's gradual underflow), asked of its multiply and subtract: None where
+// they disagree, or a kernel's results could not be the interpreter's
+static int interpreter_subnormals(void) {
+    union { float f; uint32_t u; } a, b, p, d;
+    a.f = 0x1p-70f;
+    b.f = 0x1.8p-126f;
+    p.f = mp_obj_get_float_to_f(mp_binary_op(MP_BINARY_OP_MULTIPLY, mp_obj_new_float_from_f(a.f), mp_obj_new_float_from_f(a.f)));
+    d.f = mp_obj_get_float_to_f(mp_binary_op(MP_BINARY_OP_SUBTRACT, mp_obj_new_float_from_f(b.f), mp_obj_new_float_from_f(0x1p-126f)));
+    if (p.u == 0 && d.u == 0) {
+        return 1;       // flushed
+    }
+    return p.u == 0x00000200u && d.u == 0x00400000u ? 0 : -1;    // 2^-140 and 2^-127 kept
+}
+
+static mp_obj_t kind(void) {
+    if (kind_in_use == 'd') {
+        return MP_OBJ_NEW_QSTR(MP_QSTR_d);
+    }
+    return kind_in_use == 'f' ? MP_OBJ_NEW_QSTR(MP_QSTR_f) : mp_const_none;
+}
+static MP_DEFINE_CONST_FUN_OBJ_0(kind_obj, kind);
+
+// the kernels of the float in use, or None; a build without one of the two types answers None for it
+#if !HAS_FLOAT
+#define cholesky_f(...) mp_const_none
+#define cho_solve_f(...) mp_const_none
+#define solve_spd_f(...) mp_const_none
+#define eigh3_f(...) mp_const_none
+#endif
+#if !HAS_DOUBLE
+#define cholesky_d(...) mp_const_none
+#define cho_solve_d(...) mp_const_none
+#define solve_spd_d(...) mp_const_none
+#define eigh3_d(...) mp_const_none
+#endif
+#define IN_USE(name, ...) (kind_in_use == 'd' ? name##_d(__VA_ARGS__) : kind_in_use == 'f' ? name##_f(__VA_ARGS__) : mp_const_none)
+
+static mp_obj_t cholesky(mp_obj_t a) {
+    return IN_USE(cholesky, a);
+}
+static MP_DEFINE_CONST_FUN_OBJ_1(cholesky_obj, cholesky);
+
+static mp_obj_t cho_solve(mp_obj_t low, mp_obj_t b) {
+    return IN_USE(cho_solve, low, b);
+}
+static MP_DEFINE_CONST_FUN_OBJ_2(cho_solve_obj, cho_solve);
+
+static mp_obj_t solve_spd(mp_obj_t a, mp_obj_t b) {
+    return IN_USE(solve_spd, a, b);
+}
+static MP_DEFINE_CONST_FUN_OBJ_2(solve_spd_obj, solve_spd);
+
+static mp_obj_t eigh3(mp_obj_t s) {
+    return IN_USE(eigh3, s);
+}
+static MP_DEFINE_CONST_FUN_OBJ_1(eigh3_obj, eigh3);
+
+mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
+    MP_DYNRUNTIME_INIT_ENTRY
+    float_type = mp_obj_get_type(mp_obj_new_float_from_f(0.0f));
+    kind_in_use = interpreter_kind();
+    int subnormals = kind_in_use == 'f' ? interpreter_subnormals() : 0;
+    flush_subnormals = subnormals == 1;
+    if (subnormals < 0) {
+        kind_in_use = 0;
+    }
+    if ((kind_in_use == 'd' && !HAS_DOUBLE) || (kind_in_use == 'f' && !HAS_FLOAT)) {
+        kind_in_use = 0;
+    }
+    mp_store_global(MP_QSTR_kind, MP_OBJ_FROM_PTR(&kind_obj));
+    mp_store_global(MP_QSTR_cholesky, MP_OBJ_FROM_PTR(&cholesky_obj));
+    mp_store_global(MP_QSTR_cho_solve, MP_OBJ_FROM_PTR(&cho_solve_obj));
+    mp_store_global(MP_QSTR_solve_spd, MP_OBJ_FROM_PTR(&solve_spd_obj));
+    mp_store_global(MP_QSTR_eigh3, MP_OBJ_FROM_PTR(&eigh3_obj));
+    MP_DYNRUNTIME_INIT_EXIT
+}

@@ -1,0 +1,58 @@
+"""shared/linalg.py's cholesky, cho_solve, solve_spd and eigh3 through the board's float kernels in C.
+
+    from shared import linalg_native
+    linalg_native.install()     # True: shared.linalg's four now try linalgc first; False: none loaded
+    linalg_native.uninstall()   # shared.linalg's own four back
+
+linalgc.mpy (device/native/linalgc.c) does the same operations in the interpreter's own float, so
+the same bits (tests/test_native_linalg.py); kind() is None where its floats are not IEEE binary32 or
+binary64 (a 30-bit-float build). It is used where it is already in sys.modules, never imported here:
+the firmware imports it at boot where its heap has room for it (device/app.py) and installs these at
+each session's start (device/calibration_flow.py); on rp2 every load of a native module stays in the
+heap. An input it does not take (None back) goes to shared/linalg.py's Python, which raises or
+returns as it always did. A module of its own, so that shared/linalg.py is the same bytecode
+wherever the kernels are not loaded (the .mpy firmware's quick finishes in a row were refused
+no_memory more often with the hooks inside it: docs/limits.md).
+"""
+
+import sys
+
+from shared import linalg
+
+_PYTHON = (linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3)
+_native = None
+
+
+def _cholesky(a, num):
+    low = _native.cholesky(a) if num is float else None
+    return _PYTHON[0](a, num) if low is None else low
+
+
+def _cho_solve(low, b):
+    y = _native.cho_solve(low, b)
+    return _PYTHON[1](low, b) if y is None else y
+
+
+def _solve_spd(a, b, num):
+    y = _native.solve_spd(a, b) if num is float else None
+    return _PYTHON[2](a, b, num) if y is None else y
+
+
+def _eigh3(s, num, sweeps=12):
+    out = _native.eigh3(s) if num is float and sweeps == 12 else None
+    return _PYTHON[3](s, num, sweeps) if out is None else out
+
+
+def install():
+    """shared.linalg's four through linalgc where it is loaded and matches this interpreter's floats."""
+    global _native
+    _native = sys.modules.get("linalgc")
+    if _native is None or _native.kind() is None:
+        _native = None
+        return False
+    linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3 = _cholesky, _cho_solve, _solve_spd, _eigh3
+    return True
+
+
+def uninstall():
+    linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3 = _PYTHON

@@ -1,0 +1,229 @@
+# Runs under CPython (shared/linalg.py's Python alone) and each MicroPython board (with linalgc.mpy
+# where it loads), from argv or main(root, natmod_folder): puts the folder holding linalgc.mpy and
+# the repository on sys.path, imports it as the firmware does at boot and installs it as a session
+# does (shared/linalg_native.py), and calls cholesky, cho_solve, solve_spd and eigh3 on the same inputs
+# twice, through the native module and with shared/linalg.py's own Python (uninstall()): the
+# results must be the same bits (each float packed as the interpreter's own width) and what raises
+# must raise the same exception. Inputs from a fixed 32-bit LCG (lcg.py beside it): symmetric
+# positive definite matrices of 1 to 12 rows (random, badly scaled by powers of two, nearly
+# singular, with entries from 2**-60 to 2**60), indefinite and singular ones, lower triangles with a
+# zero on the diagonal, 3x3 symmetric matrices for eigh3 (random, nearly diagonal: the tiny-angle
+# branch, already diagonal, equal eigenvalues, huge entries whose products overflow, tiny ones),
+# and what the native module must hand back to Python (ints among the floats, nan, inf, tuples,
+# ragged rows, 13 rows). Then whole solves (shared.fit: a full one, a provisional one, a quick
+# re-calibration; not on the emulated boards, where every run is shorter) of a distorted sphere, native
+# and not: the same calibration to the bit.
+# Prints one JSON line: the path, the calls compared, those that differed, how many the native
+# module answered itself, and the solves that differed.
+import gc
+import json
+import math
+import sys
+
+FLOAT_CODE = "d" if 1.0 + 2.0 ** -40 != 1.0 else "f"
+
+
+def flat(x, out):
+    """Every number in x (nested lists and tuples), in order, appended to out."""
+    if isinstance(x, (list, tuple)):
+        for y in x:
+            flat(y, out)
+    else:
+        out.append(x)
+    return out
+
+
+def bits(x):
+    """x's floats as bytes of the interpreter's own width (one pack), anything else by repr."""
+    import struct
+    items = flat(x, [])
+    if all(isinstance(v, float) for v in items):
+        return struct.pack("<%d%s" % (len(items), FLOAT_CODE), *items)
+    return repr(items).encode()
+
+
+def fl(rng, lo=-20, hi=20):
+    """A random float: a 24-bit mantissa times 2**e, e in lo..hi."""
+    return math.ldexp(float(rng.signed(23)), rng.bits(8) % (hi - lo + 1) + lo - 23)
+
+
+def spd(rng, n, scale_bits=0, eps=1.0):
+    """B B^T + eps I, rows and columns scaled by 2**(+-scale_bits) at random."""
+    b = [[fl(rng, -2, 2) for _ in range(n)] for _ in range(n)]
+    a = [[sum(b[i][k] * b[j][k] for k in range(n)) + (eps if i == j else 0.0) for j in range(n)] for i in range(n)]
+    if scale_bits:
+        s = [math.ldexp(1.0, rng.bits(8) % (2 * scale_bits + 1) - scale_bits) for _ in range(n)]
+        a = [[a[i][j] * s[i] * s[j] for j in range(n)] for i in range(n)]
+    return a
+
+
+def sym3(rng, lo, hi, off=1.0):
+    a = [[0.0] * 3 for _ in range(3)]
+    for i in range(3):
+        for j in range(i, 3):
+            x = fl(rng, lo, hi) * (1.0 if i == j else off)
+            a[i][j] = x
+            a[j][i] = x
+    return a
+
+
+def cases(rng, short):
+    """(kernel name, args) to compare."""
+    sizes = (1, 2, 3, 4, 6, 9, 12) if not short else (3, 9)
+    reps = 1 if short else 6
+    for n in sizes:
+        for r in range(reps):
+            for scale_bits, eps in ((0, 1.0), (20, 1.0), (60, 1.0), (0, 1e-7), (10, 0.0)):
+                a = spd(rng, n, scale_bits, eps)
+                b = [fl(rng) for _ in range(n)]
+                yield "cholesky", (a,)
+                yield "solve_spd", (a, b)
+                try:
+                    low = _python("cholesky", (a,))
+                except ValueError:
+                    continue
+                yield "cho_solve", (low, b)
+        bad = spd(rng, n)
+        bad[n - 1][n - 1] = -bad[n - 1][n - 1]                   # indefinite
+        yield "cholesky", (bad,)
+        yield "solve_spd", (bad, [1.0] * n)
+        zero = [[0.0] * n for _ in range(n)]
+        yield "cholesky", (zero,)
+        yield "solve_spd", (zero, [1.0] * n)
+        low = [[fl(rng) if j <= i else 0.0 for j in range(n)] for i in range(n)]
+        yield "cho_solve", (low, [fl(rng) for _ in range(n)])
+        low[n // 2][n // 2] = 0.0                                 # ZeroDivisionError in Python
+        yield "cho_solve", (low, [fl(rng) for _ in range(n)])
+    for r in range(3 if short else 40):
+        yield "eigh3", (sym3(rng, -8, 8),)
+        yield "eigh3", (sym3(rng, -3, 3, 1e-7),)                 # the tiny-angle branch
+        yield "eigh3", (sym3(rng, 30, 35),)                       # products past binary32's range
+        yield "eigh3", (sym3(rng, -60, -40),)
+        yield "eigh3", (sym3(rng, -2, 2, 0.0),)                   # diagonal already
+    yield "eigh3", ([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],)
+    yield "eigh3", ([[2.0, 1.0, 1.0], [1.0, 2.0, 1.0], [1.0, 1.0, 2.0]],)
+    # what the native module hands back to Python: the same answers through it
+    inf = float("inf")
+    nan = inf - inf
+    yield "cholesky", ([[4, 2], [2, 3]],)
+    yield "cholesky", ([[4.0, 2.0], [2.0, inf]],)
+    yield "cholesky", ([[nan, 2.0], [2.0, 3.0]],)
+    yield "cholesky", (((4.0, 2.0), (2.0, 3.0)),)
+    yield "cholesky", ([[4.0, 2.0], [2.0]],)
+    yield "cholesky", (spd(rng, 13),)
+    yield "cho_solve", ([[2.0, 0.0], [1.0, 3.0]], [1, 2.0])
+    yield "cho_solve", ([[2.0, 0.0], [1.0, 3.0]], [1.0, 2.0, 3.0])
+    yield "solve_spd", ([[4.0, 2.0], [2.0, 3.0]], [inf, 1.0])
+    yield "solve_spd", ([[4.0, 2.0], [2.0, 3.0]], (1.0, 2.0))
+    yield "eigh3", ([[1.0, 2.0], [2.0, 1.0]],)
+    yield "eigh3", ([[1, 2, 0], [2, 1, 0], [0, 0, 5]],)
+
+
+_L = None
+_N = None
+
+
+def _python(name, args):
+    """shared/linalg.py's own function (the one install() replaced)."""
+    f = _N._PYTHON[("cholesky", "cho_solve", "solve_spd", "eigh3").index(name)]
+    return f(*args, **({} if name == "cho_solve" else {"num": float}))
+
+
+def _outcome(name, args, native):
+    """The result's bytes, or the exception's class name."""
+    try:
+        r = getattr(_L, name)(*args, **({} if name == "cho_solve" else {"num": float})) if native else _python(name, args)
+    except Exception as e:  # noqa: BLE001 - compared by class
+        return e.__class__.__name__
+    return bits(r)
+
+
+def _cal_bits(cal):
+    d = cal.diagnostics
+    return bits([cal.matrix, cal.offset, cal.field, d["rms"], d["predicted_error"]]) + repr(d["iterations"]).encode()
+
+
+def solves(short):
+    """Whole solves, native and not: the names of those whose calibrations differ."""
+    from shared.calibration import Calibration
+    from shared.fit import EllipsoidFit
+    from cortexm_core import sphere     # the benches' distorted sphere of 24-bit codes (an array of x, y, z)
+    n = 200 if short else 1300
+    pts = sphere(n)
+    fit = EllipsoidFit()
+    for k in range(0, 3 * n, 3):
+        fit.add(pts[k], pts[k + 1], pts[k + 2])
+    pts = None
+    differed = []
+    runs = (("full", {}), ("provisional", {"max_iter": 1}))
+    names = ("full", "provisional") if short else ("full", "provisional", "quick")   # a board: no quick one (~1 s)
+    got = {}
+    for native in (True, False):
+        if not native:
+            _N.uninstall()
+        try:
+            for name, kw in runs:
+                gc.collect()
+                got[(name, native)] = cal = fit.solve(scale=0.01, **kw)
+                if name == "full":
+                    prior = Calibration(cal.matrix, [cal.offset[0] + 700.0, cal.offset[1] - 500.0, cal.offset[2] + 300.0],
+                                        cal.field, {"predicted_error": cal.diagnostics["predicted_error"]})
+            if "quick" in names:
+                gc.collect()
+                got[("quick", native)] = fit.solve(scale=0.01, prior=prior)
+        finally:
+            if _N._native is not None:
+                _N.install()
+    for name in names:
+        if _cal_bits(got[(name, True)]) != _cal_bits(got[(name, False)]):
+            differed.append(name)
+    return differed
+
+
+def main(root, natmod=None, short=None):
+    global _L, _N
+    if short is None:
+        short = sys.platform not in ("linux", "darwin", "win32")    # a board: rp2, qemu
+    for folder in (root, root + "/tests/micropython", root + "/desktop/bench/micropython-scripts", natmod):
+        if folder and folder not in sys.path:
+            sys.path.insert(0, folder)
+    from lcg import Rand
+    try:
+        import linalgc   # noqa: F401 - as the firmware imports it at boot: shared/linalg.py uses it where imported
+    except (ImportError, ValueError):
+        pass
+    from shared import linalg, linalg_native
+    _L, _N = linalg, linalg_native
+    installed = linalg_native.install()
+    native = linalg_native._native
+    answered = [0]
+    if native is not None:
+        # count the calls the native module answered itself (None: handed to Python)
+        class Counting:
+            def __getattr__(self, name):
+                f = getattr(native, name)
+
+                def counted(*a):
+                    r = f(*a)
+                    if r is not None:
+                        answered[0] += 1
+                    return r
+                return counted
+        linalg_native._native = Counting()
+    rng = Rand(23)
+    compared = differed = 0
+    first = None
+    for name, args in cases(rng, short):
+        compared += 1
+        if _outcome(name, args, True) != _outcome(name, args, False):
+            differed += 1
+            if first is None:
+                first = name
+    solved = solves(short)
+    linalg_native._native = native
+    print(json.dumps({"path": "native" if installed else "python", "kind": None if native is None else native.kind(), "compared": compared,
+                      "differed": differed, "first": first, "answered": answered[0], "solves_differed": solved}))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2] if len(sys.argv) > 2 and sys.argv[2] else None)
