@@ -70,20 +70,17 @@ _SAMPLE = "sample"
 _KERNELS_FREE = 150 * 1024
 
 
-def native_paths():
-    """[sums, linalg, gates]: "native" or "python" (`status`). The native modules a session uses are imported
-    here, at boot, and stay: rp2 keeps every load of one (py/persistentcode.c). The float kernels only with the
-    room above, counted before a collection (one here moves where the boot's and the sessions' blocks land); a
-    session installs them (shared/linalg_native.py), which never imports them itself."""
-    paths = {"linalgc": "python"}
-    room = not hasattr(gc, "mem_free") or gc.mem_free() >= _KERNELS_FREE
-    for name in ("gatesc", "fitsums", "linalgc") if room else ("gatesc", "fitsums"):
-        try:   # linalgc's kind() is None where the interpreter's floats are not its own
-            m = __import__(name)
-            paths[name] = "python" if name == "linalgc" and m.kind() is None else "native"
-        except (ImportError, ValueError):   # ValueError: a .mpy of another arch or version
-            paths[name] = "python"
-    return [paths["fitsums"], paths["linalgc"], paths["gatesc"]]
+def float_kernels():
+    """ "native" where the solver's float kernels are loaded (now, at boot: rp2 keeps every load of a native
+    module, py/persistentcode.c), else "python". Only with the room above, counted before a collection (one
+    here moves where the boot's and the sessions' blocks land); a session installs them (shared/linalg_native.py),
+    which never imports them itself."""
+    if hasattr(gc, "mem_free") and gc.mem_free() < _KERNELS_FREE:
+        return "python"
+    try:   # kind() is None where the interpreter's floats are not its own
+        return "python" if __import__("linalgc").kind() is None else "native"
+    except (ImportError, ValueError):   # ValueError: a .mpy of another arch or version
+        return "python"
 
 
 class App:
@@ -107,7 +104,7 @@ class App:
         self.acq = acq = Acquisition(board, self.cfg["decim"], self.cfg["window"])
         self.supervisor = sup = AdcSupervisor(board, proto, led, acq)
         self.flow = flow = CalibrationFlow(board, proto, led, self.output, self.guard, sup, FIRMWARE_VERSION)
-        flow.paths = native_paths()
+        flow.linalg_path = float_kernels()
         self.guard.flow = flow            # a loop error ends a session; safe mode drops the calibration
         sup.flow = flow                   # a fault ends a session
         sup.on_cleared = self._setup_pipeline

@@ -32,10 +32,18 @@ KEEP_CAL = "keep-cal"
 SOLVE = "solve"   # board.busy key: a solve, charged as simulated time by the simulated board
 KINDS = (AUTO, FULL, QUICK)   # start-cal's (the session's states and kinds: shared/codes.py)
 HIST_BYTES = 5 * 4 * 256      # gates.py's hist (5 ints x HIST), a session's largest block (start)
-# A session's modules (session.py, the gates, the fit and its solver: ~42 KB of heap on a 32-bit board running .mpy
-# from RAM) are imported when a session starts and dropped once it ends, so that idle and survey run without them
-# (docs/firmware.md, the heap). Not on CPython: the simulated device shares sys.modules with the desktop's shared/.
+# A session's modules (~42 KB of a 32-bit heap as .mpy) go when it ends (docs/firmware.md); not on CPython (shared sys.modules)
 _UNLOAD = sys.implementation.name != "cpython"
+
+
+def sums_path():
+    """Which sums the fit runs, "native" or "python" (`status`); the session's native modules, resident from here."""
+    for name in ("gatesc", "fitsums"):      # fitsums last: shared/fit.py's test, its import says the path
+        try:
+            path = __import__(name) and "native"
+        except (ImportError, ValueError):   # ValueError: a .mpy of another arch or version
+            path = "python"
+    return path
 
 
 class CalibrationFlow:
@@ -59,7 +67,8 @@ class CalibrationFlow:
         self.held = None          # a full calibration predicted worse than the one in force (keep-cal)
         self._diff = board.ticks_diff
         self._resident = None     # sys.modules before the session in progress imported its own
-        self.paths = ["python", "python", "python"]   # app.py's native_paths(): the fit's sums, the float kernels
+        self._sums_path = sums_path()
+        self.linalg_path = "python"   # the solver's float kernels: app.py's float_kernels() at boot
         self.service = None       # app.py: the ring drained, the watchdog fed (between the finish's solves)
 
     def load(self):
@@ -143,10 +152,9 @@ class CalibrationFlow:
         from shared.fit import SUMS_PATH
         room = None
         gc.collect()
-        self.paths[0] = SUMS_PATH
-        if self.paths[1] == "native":   # the float kernels app.py loaded, for this session's shared.linalg
-            from shared import linalg_native
-            linalg_native.install()
+        self._sums_path = SUMS_PATH
+        if self.linalg_path == "native":   # the float kernels app.py loaded, for this session's shared.linalg
+            __import__("shared.linalg_native").linalg_native.install()
         self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind, hold,
                                self.board.polls_drdy)
         self.output.session = self.session
@@ -173,9 +181,8 @@ class CalibrationFlow:
         return self._settle(cal, result, held)
 
     def _between(self):
-        """After each of the tau estimate's solves at the finish: its time charged (the simulated
-        board), then the main loop's service. The session no longer takes samples (_end): what the
-        ring holds goes to the survey output, as after the finish."""
+        """After each of the tau estimate's solves at the finish: its time charged (the simulated board), then the
+        main loop's service (the session takes no more samples, _end: the ring's go to the survey output)."""
         self.board.busy(SOLVE)
         self.service()
 
@@ -385,8 +392,8 @@ class CalibrationFlow:
             "cal_kind": cal.meta.get("kind", FULL) if cal is not None else None,
             "tempco_range": cal.tempco["range_c"] if cal is not None and cal.tempco else None,
             "last_cal": self.last_result,
-            # the fit's sums and the solver's float kernels: "native" (fitsums.mpy, linalgc.mpy) or "python"
-            "sums": self.paths[0], "linalg": self.paths[1],
+            # the fit's sums, the solver's float kernels: "native" (fitsums.mpy, linalgc.mpy) or "python"
+            "sums": self._sums_path, "linalg": self.linalg_path,
         }
         if self.session is not None:
             out["cal"] = self.session.progress()
