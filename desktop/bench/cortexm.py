@@ -8,7 +8,8 @@ What: MicroPython's bare-metal port on ARM's MPS2-AN385 (Cortex-M3, software flo
 nanosecond of the board's clock, so ticks_us() differences x 1000 count instructions
 (desktop/devicesim/qemu_board.py). Counted there, in the revision's own code compiled
 to .mpy and run from the board's ROM filesystem, with the fit's native sums (fitsums.mpy for
-armv7m, desktop/firmware/natmod.py) as deploy installs them where built (--before: pure Python):
+armv7m, desktop/firmware/natmod.py) and the solver's float kernels (linalgc.mpy) as deploy installs
+them where built (--before: pure Python):
 - micropython-scripts/cortexm_core.py: EllipsoidFit.add() with and without the garbage
   collections it causes, the bytes it leaves, solve() (a 1300-sample distorted sphere);
 - micropython-scripts/cortexm_firmware.py: the firmware's App on a LoopBoard fed a
@@ -59,13 +60,17 @@ def _mpy(src, out):
 
 def make_rom(tree, rom, configs, native=None):
     """The board's ROM: tree's device/ and shared/ as a board's /lib of .mpy (with native, the
-    fit's native sums fitsums.mpy, as deploy adds them), the bench scripts, and per configuration
+    fit's native sums fitsums.mpy, and the solver's float kernels linalgc.mpy where built, as deploy
+    adds them), the bench scripts, and per configuration
     (rate, decim, window; None: tree's defaults) a flash folder holding its config, with a frame
     file per rate."""
     lib = os.path.join(rom, "lib")
     if native:
         os.makedirs(lib, exist_ok=True)
         shutil.copyfile(native, os.path.join(lib, "fitsums.mpy"))
+        kernels = natmod_path("armv7m", "linalgc")
+        if kernels:
+            shutil.copyfile(kernels, os.path.join(lib, "linalgc.mpy"))
     for sub, dest in (("device", lib), ("shared", os.path.join(lib, "shared"))):
         for name in sorted(os.listdir(os.path.join(tree, sub))):
             if name.endswith(".py") and name not in DEVICE_ONLY:

@@ -32,6 +32,12 @@ def sphere(n):
 
 
 def main(n=1300, quiet=8):
+    try:
+        import linalgc   # noqa: F401 - the solver's float kernels, as the firmware imports them at boot,
+        from shared import linalg_native     # and installs them at a session's start (a revision without: none)
+        linalg_native.install()
+    except (ImportError, ValueError):
+        pass
     from shared.fit import EllipsoidFit
     pts = sphere(n)
     out = {"n": n, "heap_free": gc.mem_free()}
@@ -67,6 +73,12 @@ def main(n=1300, quiet=8):
     t1 = time.ticks_us()
     out["solve"] = instructions(t0, t1)
     out["iterations"] = cal.diagnostics["iterations"]
+    # a provisional solve of the same sums (a device's, every solve_every_s while calibrating)
+    gc.collect()
+    t0 = time.ticks_us()
+    fit.solve(scale=0.01, max_iter=1)
+    t1 = time.ticks_us()
+    out["solve_provisional"] = instructions(t0, t1)
     # a quick re-calibration on the same sums, the previous calibration's offsets ~900 codes
     # off (its gain models and the nine-parameter shape test included)
     from shared.calibration import Calibration
