@@ -154,7 +154,8 @@ class CalibrationFlow:
         gc.collect()
         self._sums_path = SUMS_PATH
         if self.linalg_path == "native":   # the float kernels app.py loaded, for this session's shared.linalg
-            __import__("shared.linalg_native").linalg_native.install()
+            from shared import linalg_native
+            linalg_native.install()
         self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind, hold,
                                self.board.polls_drdy)
         self.output.session = self.session
@@ -181,8 +182,7 @@ class CalibrationFlow:
         return self._settle(cal, result, held)
 
     def _between(self):
-        """After each of the tau estimate's solves at the finish: its time charged (the simulated board), then the
-        main loop's service (the session takes no more samples, _end: the ring's go to the survey output)."""
+        """After each of the tau estimate's solves at the finish: its time charged, then the main loop's service."""
         self.board.busy(SOLVE)
         self.service()
 
