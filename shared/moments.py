@@ -43,7 +43,7 @@ def _axis_chains(axis):
 
 
 _CHAINS = [_axis_chains(_a) for _a in range(3)]
-_DEGREE = bytes([_e[0] + _e[1] + _e[2] for _e in ORDER])
+DEGREE = bytes([_e[0] + _e[1] + _e[2] for _e in ORDER])
 
 
 def _taylor(s, chains, c):
@@ -87,7 +87,7 @@ def recentred(sums, centre):
 def scaled(sums, scale):
     """Power sums of scale * h from those of h: each sum times scale^degree, exactly."""
     powers = [1, scale, scale * scale, scale * scale * scale, scale * scale * scale * scale]
-    return [sums[n] * powers[_DEGREE[n]] if _DEGREE[n] else sums[n] for n in range(COUNT)]
+    return [sums[n] * powers[DEGREE[n]] if DEGREE[n] else sums[n] for n in range(COUNT)]
 
 
 def shifted(sums, scale, centre):

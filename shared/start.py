@@ -5,8 +5,25 @@
 """
 
 from shared import linalg
-from shared.moments import INDEX, to_float
+from shared.moments import DEGREE, INDEX, to_float
 from shared.quadric import UNIT, W_C, W_EXP, add_exp, sym
+
+# The moments the Gram matrices read, as storage indices worked out once (a board spends its cycles
+# on the calls and tuples that would find them): the algebraic fit's features (w(v), v) two by two
+# with their weights W_C[p] W_C[q], the features alone with W_C[p]; the sphere fit's v_i v_j, v_i,
+# v_i |v|^2 and |v|^2. _MOMENTS: every index they name (the sphere's are among the algebraic ones).
+_FEATS = [(W_EXP[m], W_C[m]) for m in range(6)] + [(UNIT[i], 1) for i in range(3)]
+_GRAM = bytes([INDEX[add_exp(fp[0], fq[0])] for fp in _FEATS for fq in _FEATS])
+_GRAM_W = bytes([fp[1] * fq[1] for fp in _FEATS for fq in _FEATS])
+_RHS = bytes([INDEX[fp[0]] for fp in _FEATS])
+_RHS_W = bytes([fp[1] for fp in _FEATS])
+_SQUARES = ((2, 0, 0), (0, 2, 0), (0, 0, 2))
+_SPHERE = bytes([INDEX[add_exp(UNIT[i], UNIT[j])] for i in range(3) for j in range(3)])
+_CUBES = bytes([INDEX[add_exp(UNIT[i], sq)] for i in range(3) for sq in _SQUARES])
+_LINEAR = bytes([INDEX[x] for x in UNIT])
+_SQUARE = bytes([INDEX[x] for x in _SQUARES])
+_MOMENTS = bytes(sorted(set(_GRAM) | set(_RHS)))
+del _FEATS, _SQUARES
 
 
 def initial_guesses(pb):
@@ -22,19 +39,14 @@ def initial_guesses(pb):
     e = pb.e
     u = pb.u
 
-    means = [None] * len(u)   # each moment converted once: the Gram matrices repeat them
-
-    def mu(exp):
-        idx = INDEX[exp]
-        x = means[idx]
-        if x is None:
-            x = means[idx] = num(to_float(u[idx], -e * (exp[0] + exp[1] + exp[2]))) / nf
-        return x
+    mu = [None] * len(u)   # each moment about C converted once: the Gram matrices repeat them
+    for idx in _MOMENTS:
+        mu[idx] = num(to_float(u[idx], -e * DEGREE[idx])) / nf
 
     guesses = []
-    feats = [(W_EXP[m], W_C[m]) for m in range(6)] + [(UNIT[i], 1) for i in range(3)]
-    gram = [[mu(add_exp(fp[0], fq[0])) * num(float(fp[1] * fq[1])) for fq in feats] for fp in feats]
-    rhs = [mu(fp[0]) * num(float(fp[1])) for fp in feats]
+    weight = [None, num(1.0), num(2.0), None, num(4.0)]     # num(float(W_C[p] W_C[q]))
+    gram = [[mu[_GRAM[k]] * weight[_GRAM_W[k]] for k in range(9 * p, 9 * p + 9)] for p in range(9)]
+    rhs = [mu[_RHS[p]] * weight[_RHS_W[p]] for p in range(9)]
     try:
         sol = linalg.solve_spd(gram, rhs, num)
         am = sym(sol[:6])
@@ -49,12 +61,10 @@ def initial_guesses(pb):
         pass
     # Sphere: |v|^2 + g.v + d = 0, linear least squares in (g, d).
     one = num(1.0)
-    gram = [[mu(add_exp(UNIT[i], UNIT[j])) for j in range(3)] + [mu(UNIT[i])] for i in range(3)]
-    gram.append([mu(UNIT[j]) for j in range(3)] + [one])
-    rhs = []
-    for i in range(3):
-        rhs.append(-(mu(add_exp(UNIT[i], (2, 0, 0))) + mu(add_exp(UNIT[i], (0, 2, 0))) + mu(add_exp(UNIT[i], (0, 0, 2)))))
-    rhs.append(-(mu((2, 0, 0)) + mu((0, 2, 0)) + mu((0, 0, 2))))
+    gram = [[mu[_SPHERE[3 * i + j]] for j in range(3)] + [mu[_LINEAR[i]]] for i in range(3)]
+    gram.append([mu[_LINEAR[j]] for j in range(3)] + [one])
+    rhs = [-(mu[_CUBES[3 * i]] + mu[_CUBES[3 * i + 1]] + mu[_CUBES[3 * i + 2]]) for i in range(3)]
+    rhs.append(-(mu[_SQUARE[0]] + mu[_SQUARE[1]] + mu[_SQUARE[2]]))
     try:
         sol = linalg.solve_spd(gram, rhs, num)
         b = [-sol[i] / num(2.0) for i in range(3)]
