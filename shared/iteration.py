@@ -82,20 +82,26 @@ def system(pb, st, gradient_only=False):
     else:
         h, g, _ = pb.normal_equations(st.s, st.a_int, st.ga, st.t, st.a)
     if st.rho:
-        zero = pb.num(0.0)
         lam = pb.value(st.rss, -6 * FRAC) / (pb.nf * pb.nf)  # (RSS/N)/N
-        for r, row in zip(st.rho, st.jac):
-            for i in range(9):
-                ri = row[i]
-                if ri == zero:
-                    continue
-                lr = lam * ri      # the products as written lam * row[i] * row[k]: (lam row[i]) row[k]
-                g[i] = g[i] + lr * r
-                if h is not None:
-                    hi = h[i]
-                    for k in range(9):
-                        hi[k] = hi[k] + lr * row[k]
+        add_prior(h, g, st.rho, st.jac, lam, pb.num(0.0))
     return h, g
+
+
+def add_prior(h, g, rho, jac, lam, zero):
+    """The prior's terms of (2) added to H (None: the gradient only) and g in place, lam = (RSS/N)/N:
+    g += lam J^T rho, H += lam J^T J. shared.linalg_native puts linalgc's in its place on a board
+    that has it (the same bits)."""
+    for r, row in zip(rho, jac):
+        for i in range(9):
+            ri = row[i]
+            if ri == zero:
+                continue
+            lr = lam * ri      # the products as written lam * row[i] * row[k]: (lam row[i]) row[k]
+            g[i] = g[i] + lr * r
+            if h is not None:
+                hi = h[i]
+                for k in range(9):
+                    hi[k] = hi[k] + lr * row[k]
 
 
 def in_basis(h, g, basis):

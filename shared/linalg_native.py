@@ -1,8 +1,10 @@
-"""shared/linalg.py's cholesky, cho_solve, solve_spd and eigh3 through the board's float kernels in C.
+"""The solver's float work through the board's kernels in C: shared/linalg.py's cholesky, cho_solve,
+solve_spd and eigh3, shared/quadric.py's normal_matrix, shared/iteration.py's add_prior and
+shared/prior.py's Prior.residuals.
 
     from shared import linalg_native
-    linalg_native.install()     # True: shared.linalg's four now try linalgc first; False: none loaded
-    linalg_native.uninstall()   # shared.linalg's own four back
+    linalg_native.install()     # True: the seven now try linalgc first; False: none loaded
+    linalg_native.uninstall()   # the Python's own seven back
 
 linalgc.mpy (device/native/linalgc.c) does the same operations in the interpreter's own float, so
 the same bits (tests/test_native_linalg.py); kind() is None where its floats are not IEEE binary32 or
@@ -17,10 +19,15 @@ no_memory more often with the hooks inside it: docs/limits.md).
 
 import sys
 
-from shared import linalg
+from shared import iteration, linalg, prior, quadric
 
-_PYTHON = (linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3)
+_PYTHON = (linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3, quadric.normal_matrix,
+           iteration.add_prior, prior.Prior.residuals)
 _native = None
+# quadric's index tables as normal_matrix's C reads them (device/native/solver_body.h): one bytes
+_TABLES = bytes([i for row in quadric._IDX4 for i in row] + [c for row in quadric._C4 for c in row]
+                + [i for row in quadric._IDX3 for i in row] + list(quadric.W_C)
+                + [i for row in quadric._IDX2M for i in row])
 
 
 def _cholesky(a, num):
@@ -43,16 +50,33 @@ def _eigh3(s, num, sweeps=12):
     return _PYTHON[3](s, num, sweeps) if out is None else out
 
 
+def _normal_matrix(mean, am, nf, num):
+    h = _native.normal_matrix(mean, am, nf, _TABLES) if num is float else None
+    return _PYTHON[4](mean, am, nf, num) if h is None else h
+
+
+def _add_prior(h, g, rho, jac, lam, zero):
+    if _native.add_prior(h, g, rho, jac, lam) is None:
+        _PYTHON[5](h, g, rho, jac, lam, zero)
+
+
+def _residuals(self, a, f):
+    out = _native.prior_residuals(self, a, f) if self.num is float else None
+    return _PYTHON[6](self, a, f) if out is None else out
+
+
 def install():
-    """shared.linalg's four through linalgc where it is loaded and matches this interpreter's floats."""
+    """The seven through linalgc where it is loaded and matches this interpreter's floats."""
     global _native
     _native = sys.modules.get("linalgc")
     if _native is None or _native.kind() is None:
         _native = None
         return False
     linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3 = _cholesky, _cho_solve, _solve_spd, _eigh3
+    quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _normal_matrix, _add_prior, _residuals
     return True
 
 
 def uninstall():
-    linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3 = _PYTHON
+    linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3 = _PYTHON[:4]
+    quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _PYTHON[4:]

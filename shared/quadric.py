@@ -43,6 +43,44 @@ def sym(a):
     return [[a[0], a[3], a[4]], [a[3], a[1], a[5]], [a[4], a[5], a[2]]]
 
 
+def normal_matrix(mean, am, nf, num):
+    """Problem.normal_equations' float part: the per-sample normal matrix H (9x9) from the power
+    sums of degree 2..4 as floats in the frame (`mean`, by storage index; over nf their means) and
+    A (3x3), each entry formed by the same operations as if written out. shared.linalg_native puts
+    linalgc's in its place on a board that has it (the same bits)."""
+    two = num(2.0)
+    weights = [num(float(c)) for c in (1, 2, 4)]
+    m4 = [[None] * 6 for _ in range(6)]
+    for m in range(6):
+        row4 = _IDX4[m]
+        crow = _C4[m]
+        out = m4[m]
+        for k in range(m, 6):
+            x = mean[row4[k]] * weights[crow[k] >> 1] / nf
+            out[k] = x
+            m4[k][m] = x
+    m3 = [[mean[_IDX3[i][k]] * weights[W_C[k] >> 1] / nf for k in range(6)] for i in range(3)]
+    m2 = [[None] * 3 for _ in range(3)]
+    for i in range(3):
+        for j in range(i, 3):
+            x = mean[_IDX2M[i][j]] / nf
+            m2[i][j] = x
+            m2[j][i] = x
+    h = [m4[m] + [None] * 3 for m in range(6)] + [[None] * 9 for _ in range(3)]
+    for m in range(6):
+        for i in range(3):
+            # d r / d f_i = -2 (A v)_i
+            x = -two * (am[i][0] * m3[0][m] + am[i][1] * m3[1][m] + am[i][2] * m3[2][m])
+            h[m][6 + i] = x
+            h[6 + i][m] = x
+    am2 = [[am[i][0] * m2[0][j] + am[i][1] * m2[1][j] + am[i][2] * m2[2][j] for j in range(3)] for i in range(3)]
+    four = num(4.0)
+    for i in range(3):
+        for k in range(3):
+            h[6 + i][6 + k] = four * (am2[i][0] * am[0][k] + am2[i][1] * am[1][k] + am2[i][2] * am[2][k])
+    return h
+
+
 class Problem:
     """The fit in the frame v = (h - C) / 2^e, parameters as fixed-point ints."""
 
@@ -116,8 +154,6 @@ class Problem:
         by the same operations as if written out.
         """
         num = self.num
-        nf = self.nf
-        two = num(2.0)
         if a is None:
             a = [self.value(x, -FRAC) for x in a_int]
         am = sym(a)
@@ -125,36 +161,7 @@ class Problem:
         mean = [None] * len(s)
         for idx, degree in _MEANS:
             mean[idx] = num(to_float(s[idx], -degree * FRAC))
-        weights = [num(float(c)) for c in (1, 2, 4)]
-        m4 = [[None] * 6 for _ in range(6)]
-        for m in range(6):
-            row4 = _IDX4[m]
-            crow = _C4[m]
-            out = m4[m]
-            for k in range(m, 6):
-                x = mean[row4[k]] * weights[crow[k] >> 1] / nf
-                out[k] = x
-                m4[k][m] = x
-        m3 = [[mean[_IDX3[i][k]] * weights[W_C[k] >> 1] / nf for k in range(6)] for i in range(3)]
-        m2 = [[None] * 3 for _ in range(3)]
-        for i in range(3):
-            for j in range(i, 3):
-                x = mean[_IDX2M[i][j]] / nf
-                m2[i][j] = x
-                m2[j][i] = x
-        h = [m4[m] + [None] * 3 for m in range(6)] + [[None] * 9 for _ in range(3)]
-        for m in range(6):
-            for i in range(3):
-                # d r / d f_i = -2 (A v)_i
-                x = -two * (am[i][0] * m3[0][m] + am[i][1] * m3[1][m] + am[i][2] * m3[2][m])
-                h[m][6 + i] = x
-                h[6 + i][m] = x
-        am2 = [[am[i][0] * m2[0][j] + am[i][1] * m2[1][j] + am[i][2] * m2[2][j] for j in range(3)] for i in range(3)]
-        four = num(4.0)
-        for i in range(3):
-            for k in range(3):
-                h[6 + i][6 + k] = four * (am2[i][0] * am[0][k] + am2[i][1] * am[1][k] + am2[i][2] * am[2][k])
-        return h, self.gradient(ga, t, am), a
+        return normal_matrix(mean, am, self.nf, num), self.gradient(ga, t, am), a
 
     def gradient(self, ga, t, am):
         """Per-sample gradient g of (1) from the exact (g_A, T) and A (3x3)."""

@@ -1,7 +1,8 @@
 // linalgc: shared/linalg.py's cholesky, cho_solve, solve_spd and eigh3 in C (a MicroPython native
-// module, .mpy), for the solver's float work on a board (shared/solver.py: the step direction, the
-// initial guesses, the predicted error; a provisional solve spends a third of its cycles in them
-// on an RP2040, every float operation a heap allocation there).
+// module, .mpy), and the normal equations' float work (shared/quadric.py's normal_matrix,
+// shared/iteration.py's add_prior, shared/prior.py's residuals: solver_body.h), for the solver's float work on a board
+// (shared/solver.py: the step direction, the initial guesses, the predicted error; on an RP2040
+// every float operation in bytecode is a heap allocation).
 //
 //     import linalgc
 //     linalgc.kind()                 # "f", "d": the interpreter's floats, which this build matches; None
@@ -9,6 +10,9 @@
 //     linalgc.cho_solve(low, b)      # x, or None
 //     linalgc.solve_spd(a, b)        # x, or None
 //     linalgc.eigh3(s)               # (values, vectors), or None
+//     linalgc.normal_matrix(mean, am, nf, tables)   # shared/quadric.py's H, or None
+//     linalgc.add_prior(h, g, rho, jac, lam)        # shared/iteration.py's, in place: True, or None
+//     linalgc.prior_residuals(prior, a, f)          # shared/prior.py's Prior.residuals: (rho, jac), or None
 //
 // Word for word shared/linalg.py's, in the interpreter's own float: the same operations in the same
 // order, each rounded once as MicroPython rounds it (IEEE 754 binary32 or binary64, round to nearest
@@ -58,6 +62,7 @@ float __ieee754_sqrtf(float);   // newlib's ef_sqrt.c itself: its sqrtf wrapper 
 #define RGET(o) mp_obj_get_float_to_f(o)
 #define RNEW(x) mp_obj_new_float_from_f(x)
 #include "linalg_body.h"
+#include "solver_body.h"
 #undef REAL
 #undef RUINT
 #undef RSIGN
@@ -78,6 +83,7 @@ float __ieee754_sqrtf(float);   // newlib's ef_sqrt.c itself: its sqrtf wrapper 
 #define RGET(o) mp_obj_get_float_to_d(o)
 #define RNEW(x) mp_obj_new_float_from_d(x)
 #include "linalg_body.h"
+#include "solver_body.h"
 #else
 #define HAS_DOUBLE (0)
 #endif
@@ -126,12 +132,18 @@ static MP_DEFINE_CONST_FUN_OBJ_0(kind_obj, kind);
 #define cho_solve_f(...) mp_const_none
 #define solve_spd_f(...) mp_const_none
 #define eigh3_f(...) mp_const_none
+#define normal_matrix_f(...) mp_const_none
+#define add_prior_f(...) mp_const_none
+#define prior_residuals_f(...) mp_const_none
 #endif
 #if !HAS_DOUBLE
 #define cholesky_d(...) mp_const_none
 #define cho_solve_d(...) mp_const_none
 #define solve_spd_d(...) mp_const_none
 #define eigh3_d(...) mp_const_none
+#define normal_matrix_d(...) mp_const_none
+#define add_prior_d(...) mp_const_none
+#define prior_residuals_d(...) mp_const_none
 #endif
 #define IN_USE(name, ...) (kind_in_use == 'd' ? name##_d(__VA_ARGS__) : kind_in_use == 'f' ? name##_f(__VA_ARGS__) : mp_const_none)
 
@@ -155,6 +167,31 @@ static mp_obj_t eigh3(mp_obj_t s) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_1(eigh3_obj, eigh3);
 
+static mp_obj_t normal_matrix(size_t n_args, const mp_obj_t *args) {
+    return IN_USE(normal_matrix, args[0], args[1], args[2], args[3]);
+}
+static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(normal_matrix_obj, 4, 4, normal_matrix);
+
+static mp_obj_t add_prior(size_t n_args, const mp_obj_t *args) {
+    return IN_USE(add_prior, n_args, args);
+}
+static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(add_prior_obj, 5, 5, add_prior);
+
+static mp_obj_t prior_residuals(mp_obj_t self, mp_obj_t a, mp_obj_t f) {
+    // (the names here: mpy_ld collects a module's qstrs from its .c file, not from the headers)
+    if (!kind_in_use) {
+        return mp_const_none;
+    }
+    mp_obj_t attrs[7] = {
+        mp_load_attr(self, MP_QSTR_kr), mp_load_attr(self, MP_QSTR_q_target), mp_load_attr(self, MP_QSTR_q_sigma),
+        mp_load_attr(self, MP_QSTR_f_target), mp_load_attr(self, MP_QSTR_f_sigma),
+        mp_load_attr(self, MP_QSTR_t_target), mp_load_attr(self, MP_QSTR_t_sigma),
+    };
+    (void)attrs;    // (a build without the float in use: the macro below does not read them)
+    return IN_USE(prior_residuals, attrs, a, f);
+}
+static MP_DEFINE_CONST_FUN_OBJ_3(prior_residuals_obj, prior_residuals);
+
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
     MP_DYNRUNTIME_INIT_ENTRY
     float_type = mp_obj_get_type(mp_obj_new_float_from_f(0.0f));
@@ -172,5 +209,8 @@ mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *a
     mp_store_global(MP_QSTR_cho_solve, MP_OBJ_FROM_PTR(&cho_solve_obj));
     mp_store_global(MP_QSTR_solve_spd, MP_OBJ_FROM_PTR(&solve_spd_obj));
     mp_store_global(MP_QSTR_eigh3, MP_OBJ_FROM_PTR(&eigh3_obj));
+    mp_store_global(MP_QSTR_normal_matrix, MP_OBJ_FROM_PTR(&normal_matrix_obj));
+    mp_store_global(MP_QSTR_add_prior, MP_OBJ_FROM_PTR(&add_prior_obj));
+    mp_store_global(MP_QSTR_prior_residuals, MP_OBJ_FROM_PTR(&prior_residuals_obj));
     MP_DYNRUNTIME_INIT_EXIT
 }

@@ -1,16 +1,17 @@
 # Runs under CPython (shared/linalg.py's Python alone) and each MicroPython board (with linalgc.mpy
 # where it loads), from argv or main(root, natmod_folder): puts the folder holding linalgc.mpy and
 # the repository on sys.path, imports it as the firmware does at boot and installs it as a session
-# does (shared/linalg_native.py), and calls cholesky, cho_solve, solve_spd and eigh3 on the same inputs
-# twice, through the native module and with shared/linalg.py's own Python (uninstall()): the
-# results must be the same bits (each float packed as the interpreter's own width) and what raises
-# must raise the same exception. Inputs from a fixed 32-bit LCG (lcg.py beside it): symmetric
+# does (shared/linalg_native.py), and calls cholesky, cho_solve, solve_spd, eigh3, normal_matrix and
+# add_prior on the same inputs twice, through the native module and with the Python's own functions
+# (linalg_native._PYTHON): the results must be the same bits (each float packed as the interpreter's
+# own width; add_prior's h and g after it) and what raises must raise the same exception. Inputs from a fixed 32-bit LCG (lcg.py beside it): symmetric
 # positive definite matrices of 1 to 12 rows (random, badly scaled by powers of two, nearly
 # singular, with entries from 2**-60 to 2**60), indefinite and singular ones, lower triangles with a
 # zero on the diagonal, 3x3 symmetric matrices for eigh3 (random, nearly diagonal: the tiny-angle
 # branch, already diagonal, equal eigenvalues, huge entries whose products overflow, tiny ones),
-# and what the native module must hand back to Python (ints among the floats, nan, inf, tuples,
-# ragged rows, 13 rows). Then whole solves (shared.fit: a full one, a provisional one, a quick
+# power sums and quadrics for normal_matrix and prior rows for add_prior (random, zeros of both
+# signs, overflowing), and what the native module must hand back to Python (ints among the floats,
+# nan, inf, tuples, ragged rows, 13 rows, None where a sum is read, a list twice in h). Then whole solves (shared.fit: a full one, a provisional one, a quick
 # re-calibration; not on the emulated boards, where every run is shorter) of a distorted sphere, native
 # and not: the same calibration to the bit.
 # Prints one JSON line: the path, the calls compared, those that differed, how many the native
@@ -117,22 +118,99 @@ def cases(rng, short):
     yield "solve_spd", ([[4.0, 2.0], [2.0, 3.0]], (1.0, 2.0))
     yield "eigh3", ([[1.0, 2.0], [2.0, 1.0]],)
     yield "eigh3", ([[1, 2, 0], [2, 1, 0], [0, 0, 5]],)
+    yield from normal_cases(rng, short)
+
+
+def sums35(rng, lo, hi):
+    """normal_matrix's `mean`: floats at the power sums of degree 2..4 (storage indices 4..34), None below."""
+    return [None] * 4 + [fl(rng, lo, hi) for _ in range(31)]
+
+
+def prior_rows(rng, n, lo=-10, hi=10):
+    """n rows of 9 floats, about half of them zeros of either sign (add_prior skips those columns)."""
+    return [[(fl(rng, lo, hi) if rng.bits(1) else (0.0 if rng.bits(1) else -0.0)) for _ in range(9)] for _ in range(n)]
+
+
+def normal_cases(rng, short):
+    """(kernel name, args) for shared/quadric.py's normal_matrix and shared/iteration.py's add_prior."""
+    for r in range(4 if short else 40):
+        nf = float(rng.bits(12) + 12)
+        yield "normal_matrix", (sums35(rng, -6, 6), sym3(rng, -3, 3), nf)
+        yield "normal_matrix", (sums35(rng, -40, 40), sym3(rng, -40, 40), fl(rng, -30, 30))
+        n = rng.bits(8) % 10 + 1
+        h = [[fl(rng) for _ in range(9)] for _ in range(9)]
+        yield "add_prior", (h, [fl(rng) for _ in range(9)], [fl(rng) for _ in range(n)], prior_rows(rng, n), fl(rng, -40, 0))
+        yield "add_prior", (None, [fl(rng) for _ in range(9)], [fl(rng) for _ in range(n)], prior_rows(rng, n), fl(rng, -40, 0))
+    inf = float("inf")
+    big = sums35(rng, 120, 127)     # products past binary32's range (an infinity: Python's then)
+    yield "normal_matrix", (big, sym3(rng, 100, 120), 1e-30)
+    bad = sums35(rng, -6, 6)
+    bad[20] = 3                    # an int: Python's
+    yield "normal_matrix", (bad, sym3(rng, -3, 3), 100.0)
+    bad = sums35(rng, -6, 6)
+    bad[12] = None                 # TypeError in Python
+    yield "normal_matrix", (bad, sym3(rng, -3, 3), 100.0)
+    yield "normal_matrix", (sums35(rng, -6, 6)[:34], sym3(rng, -3, 3), 100.0)    # IndexError
+    yield "normal_matrix", (sums35(rng, -6, 6), sym3(rng, -3, 3), 0.0)          # ZeroDivisionError
+    rows = prior_rows(rng, 3)
+    h = [[fl(rng) for _ in range(9)] for _ in range(9)]
+    yield "add_prior", (h, [fl(rng) for _ in range(9)], [fl(rng) for _ in range(3)], rows, inf)
+    yield "add_prior", (h, [fl(rng) for _ in range(9)], [fl(rng, 100, 120) for _ in range(3)], prior_rows(rng, 3, 100, 120), 1e30)
+    yield "add_prior", (h, (1.0,) * 9, [1.0], prior_rows(rng, 1), 1.0)                  # a tuple g: TypeError
+    yield "add_prior", (h, [1.0] * 9, [1.0, 2.0], prior_rows(rng, 1), 1.0)              # zip stops at the shorter
+    yield "add_prior", (h[:8] + [h[0]], [1.0] * 9, [1.0], [[1.0] * 9], 0.5)            # one list twice in h
+    yield "add_prior", (h, [1.0] * 9, [], [], 1.0)
+    from shared.prior import SHAPE_SIGMA, Prior
+    for r in range(4 if short else 40):
+        kr = [fl(rng, -1, 1) for _ in range(3)]
+        a = [fl(rng, -2, 2) for _ in range(3)] + [fl(rng, -12, -5) for _ in range(3)]
+        f = [fl(rng, -8, 8) for _ in range(3)]
+        physical = Prior(float, kr, [0.0] * 6, [SHAPE_SIGMA[0]] * 3 + [SHAPE_SIGMA[1]] * 3)
+        yield "residuals", (physical, a, f)
+        previous = Prior(float, kr, [fl(rng, -12, -5) for _ in range(6)], [2e-4] * 6, [fl(rng, -8, 8) for _ in range(3)],
+                         fl(rng, -20, -5), fl(rng, -2, 2), fl(rng, -14, -10))
+        yield "residuals", (previous, a, f)
+        yield "residuals", (Prior(float, kr, [0.0] * 6, [1e-2] * 6, None, None, fl(rng, -2, 2), 2e-4), a, f)
+    yield "residuals", (physical, [0.0] * 6, f)                                     # t = 0: ZeroDivisionError
+    yield "residuals", (physical, [1.0, 1.0, 1.0, 0.0, 0.0, 3], f)                  # an int: Python's
+    yield "residuals", (physical, [1e30, 1e30, 1e30, 0.0, 0.0, 0.0], f)             # overflows in binary32
+    yield "residuals", (physical, [1.0] * 5, f)                                      # IndexError
+
+
+def copied(x):
+    """A deep copy of nested lists (add_prior works in place: each side gets its own)."""
+    return [copied(y) for y in x] if isinstance(x, list) else x
 
 
 _L = None
 _N = None
 
 
+KERNELS = ("cholesky", "cho_solve", "solve_spd", "eigh3", "normal_matrix", "add_prior", "residuals")
+
+
 def _python(name, args):
-    """shared/linalg.py's own function (the one install() replaced)."""
-    f = _N._PYTHON[("cholesky", "cho_solve", "solve_spd", "eigh3").index(name)]
-    return f(*args, **({} if name == "cho_solve" else {"num": float}))
+    """The Python's own function (the one install() replaced)."""
+    return _call(_N._PYTHON[KERNELS.index(name)], name, args)
+
+
+def _call(f, name, args):
+    if name in ("cho_solve", "residuals"):
+        return f(*args)
+    if name == "add_prior":
+        h, g = args[0], args[1]
+        f(*(args + (0.0,)))
+        return [g] if h is None else [h, g]
+    return f(*args, float) if name == "normal_matrix" else f(*args, num=float)
 
 
 def _outcome(name, args, native):
     """The result's bytes, or the exception's class name."""
+    args = tuple(copied(a) for a in args)
+    from shared import iteration, prior, quadric
+    where = iteration if name == "add_prior" else quadric if name == "normal_matrix" else prior.Prior if name == "residuals" else _L
     try:
-        r = getattr(_L, name)(*args, **({} if name == "cho_solve" else {"num": float})) if native else _python(name, args)
+        r = _call(getattr(where, name), name, args) if native else _python(name, args)
     except Exception as e:  # noqa: BLE001 - compared by class
         return e.__class__.__name__
     return bits(r)
