@@ -1,10 +1,11 @@
 """The solver's float work through the board's kernels in C: shared/linalg.py's cholesky, cho_solve,
-solve_spd and eigh3, shared/quadric.py's normal_matrix, shared/iteration.py's add_prior and
-shared/prior.py's Prior.residuals.
+solve_spd and eigh3, shared/quadric.py's normal_matrix, shared/iteration.py's add_prior,
+shared/prior.py's Prior.residuals and shared/predicted.py's _sphere_gradients, _variance_sum and
+_bias_spread.
 
     from shared import linalg_native
-    linalg_native.install()     # True: the seven now try linalgc first; False: none loaded
-    linalg_native.uninstall()   # the Python's own seven back
+    linalg_native.install()     # True: those ten now try linalgc first; False: none loaded
+    linalg_native.uninstall()   # the Python's own ten back
 
 linalgc.mpy (device/native/linalgc.c) does the same operations in the interpreter's own float, so
 the same bits (tests/test_native_linalg.py); kind() is None where its floats are not IEEE binary32 or
@@ -19,10 +20,11 @@ no_memory more often with the hooks inside it: docs/limits.md).
 
 import sys
 
-from shared import iteration, linalg, prior, quadric
+from shared import iteration, linalg, predicted, prior, quadric
 
 _PYTHON = (linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3, quadric.normal_matrix,
-           iteration.add_prior, prior.Prior.residuals)
+           iteration.add_prior, prior.Prior.residuals, predicted._sphere_gradients, predicted._variance_sum,
+           predicted._bias_spread)
 _native = None
 # quadric's index tables as normal_matrix's C reads them (device/native/solver_body.h): one bytes
 _TABLES = bytes([i for row in quadric._IDX4 for i in row] + [c for row in quadric._C4 for c in row]
@@ -65,8 +67,23 @@ def _residuals(self, a, f):
     return _PYTHON[6](self, a, f) if out is None else out
 
 
+def _sphere_gradients(a_values, a_vectors, am, num):
+    out = _native.sphere_gradients(a_values, a_vectors, am, predicted._ICO) if num is float else None
+    return _PYTHON[7](a_values, a_vectors, am, num) if out is None else out
+
+
+def _variance_sum(low, grads, dirs, num):
+    total = None if dirs or num is not float else _native.variance_sum(low, grads)
+    return _PYTHON[8](low, grads, dirs, num) if total is None else total
+
+
+def _bias_spread(grads, bias, dirs, centred, num):
+    total = None if dirs or num is not float else _native.bias_spread(grads, bias, centred)
+    return _PYTHON[9](grads, bias, dirs, centred, num) if total is None else total
+
+
 def install():
-    """The seven through linalgc where it is loaded and matches this interpreter's floats."""
+    """The ten through linalgc where it is loaded and matches this interpreter's floats."""
     global _native
     _native = sys.modules.get("linalgc")
     if _native is None or _native.kind() is None:
@@ -74,9 +91,12 @@ def install():
         return False
     linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3 = _cholesky, _cho_solve, _solve_spd, _eigh3
     quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _normal_matrix, _add_prior, _residuals
+    predicted._sphere_gradients, predicted._variance_sum, predicted._bias_spread = (_sphere_gradients, _variance_sum,
+                                                                                   _bias_spread)
     return True
 
 
 def uninstall():
     linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3 = _PYTHON[:4]
-    quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _PYTHON[4:]
+    quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _PYTHON[4:7]
+    predicted._sphere_gradients, predicted._variance_sum, predicted._bias_spread = _PYTHON[7:]

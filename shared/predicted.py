@@ -27,7 +27,8 @@ for _s1 in (1.0, -1.0):
 
 def _sphere_gradients(a_values, a_vectors, am, num):
     """For each icosahedron direction u, the gradient g of the relative |h_c| error
-    at v = A^-1/2 u on the fitted ellipsoid: g = (w(v)/2, -A v)."""
+    at v = A^-1/2 u on the fitted ellipsoid: g = (w(v)/2, -A v). shared.linalg_native puts
+    linalgc's in its place on a board that has it (the same bits)."""
     inv_sqrt = linalg.sym_function(a_values, a_vectors, lambda l: num(1.0) / num(math.sqrt(float(l))))
     two = num(2.0)
     out = []
@@ -62,7 +63,13 @@ def _bias_sq(pb, st, rss, low, grads, num, dirs, centred):
     g = [grad[i] - s2 * g[i] for i in range(9)]
     if dirs:
         g = [sum(p[i] * g[i] for i in range(9)) for p in dirs]
-    bias = linalg.cho_solve(low, g)
+    return _bias_spread(grads, linalg.cho_solve(low, g), dirs, centred, num)
+
+
+def _bias_spread(grads, bias, dirs, centred, num):
+    """The mean square over the directions of the relative |h_c| error the offset `bias` makes
+    (gd . bias for each gradient gd), about its mean where centred. shared.linalg_native puts
+    linalgc's in its place on a board that has it (the same bits)."""
     errs = []
     for gd in grads:
         if dirs:
@@ -77,6 +84,19 @@ def _bias_sq(pb, st, rss, low, grads, num, dirs, centred):
     for e in errs:
         total = total + (e - mean) * (e - mean)
     return total / k
+
+
+def _variance_sum(low, grads, dirs, num):
+    """The sum over the directions of g^T H^-1 g (H = low low^T): the covariance's part of the
+    predicted error. shared.linalg_native puts linalgc's in its place on a board that has it."""
+    total = num(0.0)
+    for g in grads:
+        if dirs:
+            g = [sum(p[i] * g[i] for i in range(9)) for p in dirs]
+        y = linalg.cho_solve(low, g)
+        for i in range(len(g)):
+            total = total + g[i] * y[i]
+    return total
 
 
 def predicted_error(pb, st, rss, am, a_values, a_vectors, num, h=None, dirs=None, centred=False):
@@ -98,17 +118,10 @@ def predicted_error(pb, st, rss, am, a_values, a_vectors, num, h=None, dirs=None
         low = linalg.cholesky(h, num)
     except ValueError:
         raise FitError(DEGENERATE_COVERAGE, "orientations seen leave the calibration undetermined: rotate about all axes")
-    total = num(0.0)
     # the twelve directions' gradients, for the covariance here and the bias below (the same
-    # lists: ~0.9 M cycles each time they are formed on a Pico)
+    # lists: ~0.9 M cycles each time they are formed on a Pico in bytecode)
     grads = _sphere_gradients(a_values, a_vectors, am, num)
-    for g in grads:
-        if dirs:
-            g = [sum(p[i] * g[i] for i in range(9)) for p in dirs]
-        y = linalg.cho_solve(low, g)
-        for i in range(len(g)):
-            total = total + g[i] * y[i]
-    var = total / num(float(len(_ICO))) * rss / pb.nf
+    var = _variance_sum(low, grads, dirs, num) / num(float(len(_ICO))) * rss / pb.nf
     var = var + _bias_sq(pb, st, rss, low, grads, num, dirs, centred)
     if not var >= num(0.0):
         raise FitError(NON_FINITE, "covariance is not finite")

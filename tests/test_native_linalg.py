@@ -1,16 +1,20 @@
 """The solver's native float kernels (linalgc.mpy, device/native/linalgc.c, installed by shared/linalg_native.py)
-against shared/linalg.py's Python,
-bit for bit, on every interpreter that loads them, and the calibrations they make the same to the bit.
+against the Python they stand in for, bit for bit, on every interpreter that loads them, and the calibrations
+they make the same to the bit.
 
-tests/micropython/native_linalg.py calls cholesky, cho_solve, solve_spd and eigh3 through the native module and
-with it switched off, on the same inputs (random and badly scaled symmetric positive definite matrices of 1 to 12
-rows, indefinite and singular ones, zero divisors, nearly diagonal and overflowing 3x3 ones, and what the module
-must hand back to Python: ints, nan, inf, tuples, ragged rows, 13 rows), then whole solves of a distorted sphere:
-every result the same bits and every exception the same. Where the module loads: the 64-bit unix builds (x64; the
-pip micropython's doubles, kind "d", the float32 build's binary32, "f") and the emulated Pico (armv6m, whose ROM
-floats flush subnormal results to zero: the module does the same there) and Cortex-M3 (armv7m). The 30-bit-float
-build (micropython-reprc, x86) loads it but kind() is None: everything runs in Python. CircuitPython loads no
-MicroPython .mpy. A native path silently not taken fails (`answered`: the calls the module answered itself).
+tests/micropython/native_linalg.py calls each kernel through the native module and with it switched off, on the
+same inputs: shared/linalg.py's cholesky, cho_solve, solve_spd and eigh3 (random and badly scaled symmetric
+positive definite matrices of 1 to 12 rows, indefinite and singular ones, zero divisors, nearly diagonal and
+overflowing 3x3 ones), shared/quadric.py's normal_matrix, shared/iteration.py's add_prior, shared/prior.py's
+Prior.residuals (the physical prior and a previous calibration's) and shared/predicted.py's _sphere_gradients,
+_variance_sum and _bias_spread (random, zeros of both signs, overflowing), and what the module must hand back to
+Python (ints, nan, inf, tuples, ragged rows, 13 rows, a None where a sum is read, a quick fit's directions); then
+whole solves of a distorted sphere: every result the same bits and every exception the same. Where the module
+loads: the 64-bit unix builds (x64; the pip micropython's doubles, kind "d", the float32 build's binary32, "f")
+and the emulated Pico (armv6m, whose ROM floats flush subnormal results to zero: the module does the same there)
+and Cortex-M3 (armv7m). The 30-bit-float build (micropython-reprc, x86) loads it but kind() is None: everything
+runs in Python. CircuitPython loads no MicroPython .mpy. A native path silently not taken fails (`answered`: the
+calls the module answered itself).
 """
 
 import json

@@ -1,6 +1,7 @@
 // linalgc: shared/linalg.py's cholesky, cho_solve, solve_spd and eigh3 in C (a MicroPython native
 // module, .mpy), and the normal equations' float work (shared/quadric.py's normal_matrix,
-// shared/iteration.py's add_prior, shared/prior.py's residuals: solver_body.h), for the solver's float work on a board
+// shared/iteration.py's add_prior, shared/prior.py's residuals: solver_body.h) and the predicted
+// error's (shared/predicted.py's _sphere_gradients, _variance_sum, _bias_spread: predicted_body.h), for the solver's float work on a board
 // (shared/solver.py: the step direction, the initial guesses, the predicted error; on an RP2040
 // every float operation in bytecode is a heap allocation).
 //
@@ -13,6 +14,9 @@
 //     linalgc.normal_matrix(mean, am, nf, tables)   # shared/quadric.py's H, or None
 //     linalgc.add_prior(h, g, rho, jac, lam)        # shared/iteration.py's, in place: True, or None
 //     linalgc.prior_residuals(prior, a, f)          # shared/prior.py's Prior.residuals: (rho, jac), or None
+//     linalgc.sphere_gradients(values, vectors, am, ico)  # shared/predicted.py's three (all directions),
+//     linalgc.variance_sum(low, grads)                    # each a float result or None
+//     linalgc.bias_spread(grads, bias, centred)
 //
 // Word for word shared/linalg.py's, in the interpreter's own float: the same operations in the same
 // order, each rounded once as MicroPython rounds it (IEEE 754 binary32 or binary64, round to nearest
@@ -63,6 +67,7 @@ float __ieee754_sqrtf(float);   // newlib's ef_sqrt.c itself: its sqrtf wrapper 
 #define RNEW(x) mp_obj_new_float_from_f(x)
 #include "linalg_body.h"
 #include "solver_body.h"
+#include "predicted_body.h"
 #undef REAL
 #undef RUINT
 #undef RSIGN
@@ -84,6 +89,7 @@ float __ieee754_sqrtf(float);   // newlib's ef_sqrt.c itself: its sqrtf wrapper 
 #define RNEW(x) mp_obj_new_float_from_d(x)
 #include "linalg_body.h"
 #include "solver_body.h"
+#include "predicted_body.h"
 #else
 #define HAS_DOUBLE (0)
 #endif
@@ -135,6 +141,9 @@ static MP_DEFINE_CONST_FUN_OBJ_0(kind_obj, kind);
 #define normal_matrix_f(...) mp_const_none
 #define add_prior_f(...) mp_const_none
 #define prior_residuals_f(...) mp_const_none
+#define sphere_gradients_f(...) mp_const_none
+#define variance_sum_f(...) mp_const_none
+#define bias_spread_f(...) mp_const_none
 #endif
 #if !HAS_DOUBLE
 #define cholesky_d(...) mp_const_none
@@ -144,6 +153,9 @@ static MP_DEFINE_CONST_FUN_OBJ_0(kind_obj, kind);
 #define normal_matrix_d(...) mp_const_none
 #define add_prior_d(...) mp_const_none
 #define prior_residuals_d(...) mp_const_none
+#define sphere_gradients_d(...) mp_const_none
+#define variance_sum_d(...) mp_const_none
+#define bias_spread_d(...) mp_const_none
 #endif
 #define IN_USE(name, ...) (kind_in_use == 'd' ? name##_d(__VA_ARGS__) : kind_in_use == 'f' ? name##_f(__VA_ARGS__) : mp_const_none)
 
@@ -192,6 +204,21 @@ static mp_obj_t prior_residuals(mp_obj_t self, mp_obj_t a, mp_obj_t f) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_3(prior_residuals_obj, prior_residuals);
 
+static mp_obj_t sphere_gradients(size_t n_args, const mp_obj_t *args) {
+    return IN_USE(sphere_gradients, n_args, args);
+}
+static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(sphere_gradients_obj, 4, 4, sphere_gradients);
+
+static mp_obj_t variance_sum(mp_obj_t low, mp_obj_t grads) {
+    return IN_USE(variance_sum, low, grads);
+}
+static MP_DEFINE_CONST_FUN_OBJ_2(variance_sum_obj, variance_sum);
+
+static mp_obj_t bias_spread(mp_obj_t grads, mp_obj_t bias, mp_obj_t centred) {
+    return IN_USE(bias_spread, grads, bias, centred);
+}
+static MP_DEFINE_CONST_FUN_OBJ_3(bias_spread_obj, bias_spread);
+
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
     MP_DYNRUNTIME_INIT_ENTRY
     float_type = mp_obj_get_type(mp_obj_new_float_from_f(0.0f));
@@ -212,5 +239,8 @@ mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *a
     mp_store_global(MP_QSTR_normal_matrix, MP_OBJ_FROM_PTR(&normal_matrix_obj));
     mp_store_global(MP_QSTR_add_prior, MP_OBJ_FROM_PTR(&add_prior_obj));
     mp_store_global(MP_QSTR_prior_residuals, MP_OBJ_FROM_PTR(&prior_residuals_obj));
+    mp_store_global(MP_QSTR_sphere_gradients, MP_OBJ_FROM_PTR(&sphere_gradients_obj));
+    mp_store_global(MP_QSTR_variance_sum, MP_OBJ_FROM_PTR(&variance_sum_obj));
+    mp_store_global(MP_QSTR_bias_spread, MP_OBJ_FROM_PTR(&bias_spread_obj));
     MP_DYNRUNTIME_INIT_EXIT
 }

@@ -175,6 +175,33 @@ def normal_cases(rng, short):
     yield "residuals", (physical, [1.0, 1.0, 1.0, 0.0, 0.0, 3], f)                  # an int: Python's
     yield "residuals", (physical, [1e30, 1e30, 1e30, 0.0, 0.0, 0.0], f)             # overflows in binary32
     yield "residuals", (physical, [1.0] * 5, f)                                      # IndexError
+    yield from predicted_cases(rng, short)
+
+
+def predicted_cases(rng, short):
+    """(kernel name, args) for shared/predicted.py's _sphere_gradients, _variance_sum and _bias_spread."""
+    from shared.predicted import _ICO
+    for r in range(4 if short else 30):
+        am = spd(rng, 3, 4)
+        values, vectors = _python("eigh3", (am,))
+        yield "_sphere_gradients", (values, vectors, am)
+        low = _python("cholesky", (spd(rng, 9, 10),))
+        grads = [[fl(rng) for _ in range(9)] for _ in _ICO]
+        yield "_variance_sum", (low, grads, None)
+        bias = [fl(rng, -30, 0) for _ in range(9)]
+        yield "_bias_spread", (grads, bias, None, True)
+        yield "_bias_spread", (grads, bias, None, False)
+        dirs = [[fl(rng, -2, 2) for _ in range(9)] for _ in range(4)]      # a quick fit's basis: Python's
+        yield "_variance_sum", (low[:4], grads, dirs)
+        yield "_bias_spread", (grads, bias[:4], dirs, True)
+    yield "_sphere_gradients", ([1.0, -2.0, 3.0], vectors, am)              # ValueError (sqrt of a negative)
+    yield "_sphere_gradients", ([1.0, 0.0, 3.0], vectors, am)               # ZeroDivisionError
+    yield "_sphere_gradients", ([1e-40, 1.0, 1.0], vectors, [[1e30] * 3] * 3)     # overflows in binary32
+    low[4][4] = 0.0
+    yield "_variance_sum", (low, grads, None)                               # ZeroDivisionError
+    yield "_variance_sum", (low, grads[:1] + [[1.0] * 8], None)             # IndexError
+    yield "_bias_spread", (grads, [1e30] * 9, None, True)                   # overflows in binary32
+    yield "_bias_spread", ([], bias, None, True)                            # ZeroDivisionError
 
 
 def copied(x):
@@ -186,7 +213,8 @@ _L = None
 _N = None
 
 
-KERNELS = ("cholesky", "cho_solve", "solve_spd", "eigh3", "normal_matrix", "add_prior", "residuals")
+KERNELS = ("cholesky", "cho_solve", "solve_spd", "eigh3", "normal_matrix", "add_prior", "residuals", "_sphere_gradients",
+           "_variance_sum", "_bias_spread")
 
 
 def _python(name, args):
@@ -201,14 +229,15 @@ def _call(f, name, args):
         h, g = args[0], args[1]
         f(*(args + (0.0,)))
         return [g] if h is None else [h, g]
-    return f(*args, float) if name == "normal_matrix" else f(*args, num=float)
+    return f(*args, num=float) if name in KERNELS[:4] else f(*args, float)
 
 
 def _outcome(name, args, native):
     """The result's bytes, or the exception's class name."""
     args = tuple(copied(a) for a in args)
-    from shared import iteration, prior, quadric
-    where = iteration if name == "add_prior" else quadric if name == "normal_matrix" else prior.Prior if name == "residuals" else _L
+    from shared import iteration, predicted, prior, quadric
+    where = {"add_prior": iteration, "normal_matrix": quadric, "residuals": prior.Prior}.get(name, _L)
+    where = predicted if name.startswith("_") else where
     try:
         r = _call(getattr(where, name), name, args) if native else _python(name, args)
     except Exception as e:  # noqa: BLE001 - compared by class
