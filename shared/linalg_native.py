@@ -1,11 +1,11 @@
 """The solver's float work through the board's kernels in C: shared/linalg.py's cholesky, cho_solve,
 solve_spd and eigh3, shared/quadric.py's normal_matrix, shared/iteration.py's add_prior,
-shared/prior.py's Prior.residuals and shared/predicted.py's _sphere_gradients, _variance_sum and
-_bias_spread.
+shared/prior.py's Prior.residuals, shared/predicted.py's _sphere_gradients, _variance_sum and
+_bias_spread, and shared/moments.py's to_float where the solver's modules call it.
 
     from shared import linalg_native
-    linalg_native.install()     # True: those ten now try linalgc first; False: none loaded
-    linalg_native.uninstall()   # the Python's own ten back
+    linalg_native.install()     # True: those now try linalgc first; False: none loaded
+    linalg_native.uninstall()   # the Python's own back
 
 linalgc.mpy (device/native/linalgc.c) does the same operations in the interpreter's own float, so
 the same bits (tests/test_native_linalg.py); kind() is None where its floats are not IEEE binary32 or
@@ -20,11 +20,12 @@ no_memory more often with the hooks inside it: docs/limits.md).
 
 import sys
 
-from shared import iteration, linalg, predicted, prior, quadric
+from shared import iteration, linalg, moments, predicted, prior, quadric, result, start
 
 _PYTHON = (linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3, quadric.normal_matrix,
            iteration.add_prior, prior.Prior.residuals, predicted._sphere_gradients, predicted._variance_sum,
            predicted._bias_spread)
+_TO_FLOAT = (quadric, start, iteration, result)     # the solver's modules that convert its exact sums
 _native = None
 # quadric's index tables as normal_matrix's C reads them (device/native/solver_body.h): one bytes
 _TABLES = bytes([i for row in quadric._IDX4 for i in row] + [c for row in quadric._C4 for c in row]
@@ -83,7 +84,7 @@ def _bias_spread(grads, bias, dirs, centred, num):
 
 
 def install():
-    """The ten through linalgc where it is loaded and matches this interpreter's floats."""
+    """These through linalgc where it is loaded and matches this interpreter's floats."""
     global _native
     _native = sys.modules.get("linalgc")
     if _native is None or _native.kind() is None:
@@ -93,6 +94,8 @@ def install():
     quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _normal_matrix, _add_prior, _residuals
     predicted._sphere_gradients, predicted._variance_sum, predicted._bias_spread = (_sphere_gradients, _variance_sum,
                                                                                    _bias_spread)
+    for module in _TO_FLOAT:
+        module.to_float = _native.to_float     # (an int always: a TypeError for anything else, as the Python's)
     return True
 
 
@@ -100,3 +103,5 @@ def uninstall():
     linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3 = _PYTHON[:4]
     quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _PYTHON[4:7]
     predicted._sphere_gradients, predicted._variance_sum, predicted._bias_spread = _PYTHON[7:]
+    for module in _TO_FLOAT:
+        module.to_float = moments.to_float

@@ -6,8 +6,9 @@ tests/micropython/native_linalg.py calls each kernel through the native module a
 same inputs: shared/linalg.py's cholesky, cho_solve, solve_spd and eigh3 (random and badly scaled symmetric
 positive definite matrices of 1 to 12 rows, indefinite and singular ones, zero divisors, nearly diagonal and
 overflowing 3x3 ones), shared/quadric.py's normal_matrix, shared/iteration.py's add_prior, shared/prior.py's
-Prior.residuals (the physical prior and a previous calibration's) and shared/predicted.py's _sphere_gradients,
-_variance_sum and _bias_spread (random, zeros of both signs, overflowing), and what the module must hand back to
+Prior.residuals (the physical prior and a previous calibration's), shared/predicted.py's _sphere_gradients,
+_variance_sum and _bias_spread (random, zeros of both signs, overflowing) and shared/moments.py's to_float (ints
+of every size and sign, past the module's table of powers, bools), and what the module must hand back to
 Python (ints, nan, inf, tuples, ragged rows, 13 rows, a None where a sum is read, a quick fit's directions); then
 whole solves of a distorted sphere: every result the same bits and every exception the same. Where the module
 loads: the 64-bit unix builds (x64; the pip micropython's doubles, kind "d", the float32 build's binary32, "f")
@@ -41,6 +42,7 @@ def _check(text, kind):
     assert got["compared"] > 60
     assert got["kind"] == kind
     assert got["path"] == ("python" if kind is None else "native")
+    assert got["to_float"] == got["path"]
     if kind is None:
         assert got["answered"] == 0
     else:

@@ -17,6 +17,7 @@
 //     linalgc.sphere_gradients(values, vectors, am, ico)  # shared/predicted.py's three (all directions),
 //     linalgc.variance_sum(low, grads)                    # each a float result or None
 //     linalgc.bias_spread(grads, bias, centred)
+//     linalgc.to_float(x, exponent)  # shared/moments.py's to_float by the interpreter's own operations
 //
 // Word for word shared/linalg.py's, in the interpreter's own float: the same operations in the same
 // order, each rounded once as MicroPython rounds it (IEEE 754 binary32 or binary64, round to nearest
@@ -219,6 +220,72 @@ static mp_obj_t bias_spread(mp_obj_t grads, mp_obj_t bias, mp_obj_t centred) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_3(bias_spread_obj, bias_spread);
 
+// to_float: shared/moments.py's to_float by the interpreter's own int and float operations (no
+// arithmetic of its own, so the same on every port): the bit length found by comparisons with powers
+// of two made once (moments.bit_length shifts at each step, and on a board each shift is a heap
+// allocation), then its shift, float() and math.ldexp, without a bytecode frame and a call for each.
+// A Pico converts some hundred sums a solve, ~130 us each in bytecode. (Not static: mpy_ld places no
+// static variable in bss.)
+#define N_POWERS (20)           // 2**16 .. 2**320: a solve's sums are under 2**260
+mp_obj_t float_fn, ldexp_fn;
+mp_obj_t powers[N_POWERS + 1];  // powers[j] = 2**(16 j), j >= 1
+const mp_obj_type_t *int_type;
+
+static inline bool at_least(mp_obj_t x, mp_obj_t y) {
+    return mp_binary_op(MP_BINARY_OP_MORE_EQUAL, x, y) == mp_const_true;
+}
+
+// the number of bits of |x| for an int x (moments.bit_length)
+static mp_int_t int_bits(mp_obj_t x) {
+    if (!mp_obj_is_small_int(x) && mp_binary_op(MP_BINARY_OP_LESS, x, MP_OBJ_NEW_SMALL_INT(0)) == mp_const_true) {
+        x = mp_unary_op(MP_UNARY_OP_NEGATIVE, x);
+    }
+    mp_int_t n = 0;
+    if (!mp_obj_is_small_int(x)) {
+        while (at_least(x, powers[N_POWERS])) {
+            x = mp_binary_op(MP_BINARY_OP_RSHIFT, x, MP_OBJ_NEW_SMALL_INT(16 * N_POWERS));
+            n += 16 * N_POWERS;
+        }
+        size_t lo = 0, hi = N_POWERS;       // 2**(16 lo) <= x < 2**(16 hi), powers[0] standing for 1
+        while (hi - lo > 1) {
+            size_t mid = (lo + hi) / 2;
+            if (at_least(x, powers[mid])) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        if (lo) {
+            x = mp_binary_op(MP_BINARY_OP_RSHIFT, x, MP_OBJ_NEW_SMALL_INT(16 * lo));
+            n += 16 * lo;
+        }
+    }
+    mp_int_t v = MP_OBJ_SMALL_INT_VALUE(x);
+    for (mp_uint_t u = v < 0 ? -(mp_uint_t)v : (mp_uint_t)v; u; u >>= 1) {
+        n++;
+    }
+    return n;
+}
+
+// to_float(x, exponent=0): float(x * 2**exponent) as moments.to_float makes it
+static mp_obj_t to_float(size_t n_args, const mp_obj_t *args) {
+    mp_obj_t x = args[0], e = n_args > 1 ? args[1] : MP_OBJ_NEW_SMALL_INT(0);
+    if (x == mp_const_false || x == mp_const_true) {
+        x = MP_OBJ_NEW_SMALL_INT(x == mp_const_true);      // an int in Python too
+    }
+    if ((!mp_obj_is_small_int(x) && mp_obj_get_type(x) != int_type) || !mp_obj_is_small_int(e)) {
+        mp_raise_TypeError(MP_ERROR_TEXT("to_float takes an int"));       // as the Python's shifts would
+    }
+    mp_int_t exponent = MP_OBJ_SMALL_INT_VALUE(e), extra = int_bits(x) - 53;
+    if (extra > 0) {
+        x = mp_binary_op(MP_BINARY_OP_RSHIFT, x, MP_OBJ_NEW_SMALL_INT(extra));
+        exponent += extra;
+    }
+    mp_obj_t call[2] = {mp_call_function_n_kw(float_fn, 1, 0, &x), MP_OBJ_NEW_SMALL_INT(exponent)};
+    return mp_call_function_n_kw(ldexp_fn, 2, 0, call);
+}
+static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(to_float_obj, 1, 2, to_float);
+
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
     MP_DYNRUNTIME_INIT_ENTRY
     float_type = mp_obj_get_type(mp_obj_new_float_from_f(0.0f));
@@ -231,6 +298,16 @@ mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *a
     if ((kind_in_use == 'd' && !HAS_DOUBLE) || (kind_in_use == 'f' && !HAS_FLOAT)) {
         kind_in_use = 0;
     }
+    float_fn = mp_load_global(MP_QSTR_float);
+    ldexp_fn = mp_load_attr(mp_import_name(MP_QSTR_math, mp_const_none, MP_OBJ_NEW_SMALL_INT(0)), MP_QSTR_ldexp);
+    powers[0] = MP_OBJ_NEW_SMALL_INT(1);
+    for (size_t j = 1; j <= N_POWERS; j++) {
+        powers[j] = mp_binary_op(MP_BINARY_OP_LSHIFT, MP_OBJ_NEW_SMALL_INT(1), MP_OBJ_NEW_SMALL_INT(16 * j));
+    }
+    int_type = mp_obj_get_type(powers[N_POWERS]);
+    // (heap objects: the module's dict keeps them for the collector)
+    mp_store_global(MP_QSTR__POWERS, mp_obj_new_tuple(N_POWERS + 1, powers));
+    mp_store_global(MP_QSTR_to_float, MP_OBJ_FROM_PTR(&to_float_obj));
     mp_store_global(MP_QSTR_kind, MP_OBJ_FROM_PTR(&kind_obj));
     mp_store_global(MP_QSTR_cholesky, MP_OBJ_FROM_PTR(&cholesky_obj));
     mp_store_global(MP_QSTR_cho_solve, MP_OBJ_FROM_PTR(&cho_solve_obj));

@@ -176,6 +176,21 @@ def normal_cases(rng, short):
     yield "residuals", (physical, [1e30, 1e30, 1e30, 0.0, 0.0, 0.0], f)             # overflows in binary32
     yield "residuals", (physical, [1.0] * 5, f)                                      # IndexError
     yield from predicted_cases(rng, short)
+    for r in range(10 if short else 200):      # moments.to_float: sums of every size, either sign
+        x = rng.bits(30)
+        for _ in range(rng.bits(4)):
+            x = (x << 30) | rng.bits(30)
+        x = x >> rng.bits(5)
+        yield "to_float", (-x if rng.bits(1) else x, rng.bits(9) - 256)
+    for x in (0, 1, -1, (1 << 53) - 1, 1 << 53, (1 << 53) + 1, -(1 << 54) - 3, (1 << 64) - 1, 1 << 64, -(1 << 64),
+              (1 << 30) - 1, 1 << 30, -(1 << 30), -(1 << 30) - 1, (1 << 62) - 1, 1 << 62, 3 << 300):
+        yield "to_float", (x, -40)
+    yield "to_float", (5, 2)
+    yield "to_float", (1 << 200, -1200)        # underflows: the interpreter's ldexp decides, both ways
+    yield "to_float", (True, 0)                # a bool: an int in Python
+    yield "to_float", (2.5, 0)                 # TypeError in Python
+    yield "to_float", (1 << 400, 0)            # past the powers made at import
+    yield "to_float", (-(1 << 700) - 12345, -600)
 
 
 def predicted_cases(rng, short):
@@ -214,16 +229,19 @@ _N = None
 
 
 KERNELS = ("cholesky", "cho_solve", "solve_spd", "eigh3", "normal_matrix", "add_prior", "residuals", "_sphere_gradients",
-           "_variance_sum", "_bias_spread")
+           "_variance_sum", "_bias_spread", "to_float")
 
 
 def _python(name, args):
     """The Python's own function (the one install() replaced)."""
+    if name == "to_float":
+        from shared import moments
+        return moments.to_float(*args)
     return _call(_N._PYTHON[KERNELS.index(name)], name, args)
 
 
 def _call(f, name, args):
-    if name in ("cho_solve", "residuals"):
+    if name in ("cho_solve", "residuals", "to_float"):
         return f(*args)
     if name == "add_prior":
         h, g = args[0], args[1]
@@ -236,7 +254,7 @@ def _outcome(name, args, native):
     """The result's bytes, or the exception's class name."""
     args = tuple(copied(a) for a in args)
     from shared import iteration, predicted, prior, quadric
-    where = {"add_prior": iteration, "normal_matrix": quadric, "residuals": prior.Prior}.get(name, _L)
+    where = {"add_prior": iteration, "normal_matrix": quadric, "residuals": prior.Prior, "to_float": quadric}.get(name, _L)
     where = predicted if name.startswith("_") else where
     try:
         r = _call(getattr(where, name), name, args) if native else _python(name, args)
@@ -328,8 +346,12 @@ def main(root, natmod=None, short=None):
                 first = name
     solved = solves(short)
     linalg_native._native = native
+    from shared import moments, quadric
+    # to_float is installed as the native function itself (not counted in `answered`): which one the solver calls
+    to_float = "python" if quadric.to_float is moments.to_float else "native"
     print(json.dumps({"path": "native" if installed else "python", "kind": None if native is None else native.kind(), "compared": compared,
-                      "differed": differed, "first": first, "answered": answered[0], "solves_differed": solved}))
+                      "differed": differed, "first": first, "answered": answered[0], "solves_differed": solved,
+                      "to_float": to_float}))
 
 
 if __name__ == "__main__":
