@@ -28,7 +28,7 @@ _PYTHON = (linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3, qu
 _TO_FLOAT = (quadric, start, iteration, result)     # the solver's modules that convert its exact sums
 _native = None
 # quadric's index tables as normal_matrix's C reads them (device/native/solver_body.h): one bytes
-_TABLES = bytes([i for row in quadric._IDX4 for i in row] + [c for row in quadric._C4 for c in row]
+_TABLES = bytes([i for row in quadric._IDX4 for i in row] + [c * d for c in quadric.W_C for d in quadric.W_C]
                 + [i for row in quadric._IDX3 for i in row] + list(quadric.W_C)
                 + [i for row in quadric._IDX2M for i in row])
 

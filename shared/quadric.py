@@ -15,7 +15,7 @@ data gradient sum w r, sum v r and the residual sum of squares are computed
 type (shared.solver explains why that is enough).
 """
 
-from shared.moments import INDEX, bit_length, mean_centre, recentred, scaled, shifted, to_float
+from shared.moments import DEGREE, INDEX, ORDER, bit_length, mean_centre, recentred, scaled, shifted, to_float
 
 FRAC = 40  # fractional bits of the fixed-point parameters (relative 1e-12)
 
@@ -31,13 +31,13 @@ def add_exp(e1, e2):
 
 
 _IDX4 = [[INDEX[add_exp(W_EXP[m], W_EXP[n])] for n in range(6)] for m in range(6)]
-_C4 = [[W_C[m] * W_C[n] for n in range(6)] for m in range(6)]
 _IDX3 = [[INDEX[add_exp(UNIT[i], W_EXP[n])] for n in range(6)] for i in range(3)]
 _IDX2 = [INDEX[e] for e in W_EXP]
 _IDX1 = [INDEX[e] for e in UNIT]
 _IDX2M = [[INDEX[add_exp(UNIT[i], UNIT[j])] for j in range(3)] for i in range(3)]
-# (storage index, degree) of the power sums the normal matrix uses: degrees 2 to 4
-_MEANS = tuple((INDEX[e], e[0] + e[1] + e[2]) for e in INDEX if 2 <= e[0] + e[1] + e[2] <= 4)
+# the storage indices of the power sums the normal matrix uses: degrees 2 to 4
+# (one bytes object: a tuple of pairs is ~600 B more of a board's heap while a session runs)
+_MEANS = bytes([INDEX[e] for e in ORDER if 2 <= e[0] + e[1] + e[2] <= 4])
 
 def sym(a):
     return [[a[0], a[3], a[4]], [a[3], a[1], a[5]], [a[4], a[5], a[2]]]
@@ -53,10 +53,10 @@ def normal_matrix(mean, am, nf, num):
     m4 = [[None] * 6 for _ in range(6)]
     for m in range(6):
         row4 = _IDX4[m]
-        crow = _C4[m]
+        wm = W_C[m]
         out = m4[m]
         for k in range(m, 6):
-            x = mean[row4[k]] * weights[crow[k] >> 1] / nf
+            x = mean[row4[k]] * weights[(wm * W_C[k]) >> 1] / nf
             out[k] = x
             m4[k][m] = x
     m3 = [[mean[_IDX3[i][k]] * weights[W_C[k] >> 1] / nf for k in range(6)] for i in range(3)]
@@ -159,8 +159,8 @@ class Problem:
         am = sym(a)
         # the mean of each power sum of degree 2..4 the blocks use, by storage index
         mean = [None] * len(s)
-        for idx, degree in _MEANS:
-            mean[idx] = num(to_float(s[idx], -degree * FRAC))
+        for idx in _MEANS:
+            mean[idx] = num(to_float(s[idx], -DEGREE[idx] * FRAC))
         return normal_matrix(mean, am, self.nf, num), self.gradient(ga, t, am), a
 
     def gradient(self, ga, t, am):

@@ -7,10 +7,10 @@
 #define N_SUMS (35)     // shared.moments.COUNT: the power sums, by storage index
 
 // The index tables normal_matrix reads (shared/quadric.py's, handed over by shared/linalg_native.py
-// as one bytes object, so that the storage order is written down once): _IDX4 (6 x 6), _C4 (6 x 6),
-// _IDX3 (3 x 6), W_C (6), _IDX2M (3 x 3).
+// as one bytes object, so that the storage order is written down once): _IDX4 (6 x 6), the weights
+// W_C[m] W_C[k] (6 x 6), _IDX3 (3 x 6), W_C (6), _IDX2M (3 x 3).
 #define T_IDX4 (0)
-#define T_C4 (36)
+#define T_W4 (36)
 #define T_IDX3 (72)
 #define T_WC (90)
 #define T_IDX2M (96)
@@ -50,8 +50,8 @@ static mp_obj_t RNAME(normal_matrix)(mp_obj_t mean_in, mp_obj_t am_in, mp_obj_t 
     }
     // the sums the tables name (every one of degree 2..4), floats, each read once
     for (size_t k = 0; k < T_LEN; k++) {
-        if (k >= T_C4 && k < T_IDX3) {
-            continue;       // _C4: weights, not indices
+        if (k >= T_W4 && k < T_IDX3) {
+            continue;       // the weights, not indices
         }
         if (k >= T_WC && k < T_IDX2M) {
             continue;
@@ -65,7 +65,7 @@ static mp_obj_t RNAME(normal_matrix)(mp_obj_t mean_in, mp_obj_t am_in, mp_obj_t 
     bool flag = false, *bad = &flag;
     for (size_t m = 0; m < 6; m++) {
         for (size_t k = m; k < 6; k++) {
-            REAL x = CK(CK(mean[t[T_IDX4 + m * 6 + k]] * weights[t[T_C4 + m * 6 + k] >> 1]) / nf);
+            REAL x = CK(CK(mean[t[T_IDX4 + m * 6 + k]] * weights[t[T_W4 + m * 6 + k] >> 1]) / nf);
             m4[m * 6 + k] = x;
             m4[k * 6 + m] = x;
         }
