@@ -183,10 +183,10 @@ def print_tables(now, before=None, rev=None):
     print("\nCalibrating run: %d s of a hand rotation at %d / %d / %d, %d decimated samples, %d accepted, %d"
           " provisional solves, state %s; its steady state per second is the loop without those solves plus one"
           " provisional solve per 5 s (the loop itself: %s). Replays: %d samples, %d accepted. Heap held while"
-          " calibrating: %d bytes."
+          " calibrating: %d bytes. The solver's float kernels: %s (device/app.py's boot rule)."
           % (SECONDS, f["rate"], f["decim"], f["window"], f["cal_seen"], f["cal_accepted"], f["cal_solves"],
              f["cal_state"], _k(f["calibrating_loop_per_s"]), f["replay_samples"], f["replay_accepted"],
-             f["heap_live_calibrating"]))
+             f["heap_live_calibrating"], "taken" if f.get("linalg") == "native" else "not taken"))
     print("\n### Load at the default configuration, from the counts\n")
     print("Instructions x cycles per Cortex-M3 instruction (typical, range) / clock, plus the SPI wire time"
           " (%d frame reads/s x %.0f us, blocking).\n" % (reads, WIRE_US))

@@ -122,27 +122,30 @@ def _raw_exec(port, code, timeout=300.0):
     short of it (start-cal refused with no_memory, the board reset under finish-cal)."""
     with serial.Serial(port, timeout=0.1) as ser:
         end = time.monotonic() + timeout
+        got = bytearray()    # one buffer: the reboot's lines and the next prompt can come in one read
 
-        def until(marker, what):
-            got = b""
-            while marker not in got:
+        def until(marker, what, start=0):
+            """Read until `marker` appears at or after `start`; the position just past it."""
+            while True:
+                at = got.find(marker, start)
+                if at >= 0:
+                    return at + len(marker)
                 if time.monotonic() > end:
-                    raise RuntimeError("%s on %s: %r" % (what, port, got[-200:]))
-                got += ser.read(4096)
+                    raise RuntimeError("%s on %s: %r" % (what, port, bytes(got[-200:])))
+                got.extend(ser.read(4096))
                 if b">>> " in got[-8:]:
                     ser.write(b"\x01")
-            return got
         ser.write(b"\r\x01")
-        until(b"raw REPL; CTRL-B to exit\r\n>", "no raw REPL")
+        at = until(b"raw REPL; CTRL-B to exit\r\n>", "no raw REPL")
         ser.write(b"\x04")
-        until(b"soft reboot", "no soft reboot")
-        until(b"raw REPL; CTRL-B to exit\r\n>", "no raw REPL after the soft reboot")
+        at = until(b"soft reboot", "no soft reboot", at)
+        until(b"raw REPL; CTRL-B to exit\r\n>", "no raw REPL after the soft reboot", at)
         ser.write(code.encode() + b"\x04")
-        got = b""
-        while b"OK" not in got:
+        taken = b""
+        while b"OK" not in taken:
             if time.monotonic() > end:
-                raise RuntimeError("the raw REPL on %s did not take the script: %r" % (port, got[-200:]))
-            got += ser.read(64)
+                raise RuntimeError("the raw REPL on %s did not take the script: %r" % (port, taken[-200:]))
+            taken += ser.read(64)
 
 
 def _profiled_firmware(hh, dev):

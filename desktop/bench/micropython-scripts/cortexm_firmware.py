@@ -163,6 +163,7 @@ def loops(app, board, out, seconds, harness):
     gc.collect()
     out["gc_collect"] = count(t0, time.ticks_us())
     out["heap_live_calibrating"] = gc.mem_alloc()
+    out["linalg"] = getattr(flow, "linalg_path", "python")    # the boot's rule: the float kernels taken or not
     prov = provisional_solve(s, calibrate)
     out["calibrating_loop_per_s"] = n // seconds
     # the loop's own count of solves depends on where its end falls: without them, plus one
