@@ -1,7 +1,9 @@
 """The solver's float work through the board's kernels in C: shared/linalg.py's cholesky, cho_solve,
 solve_spd and eigh3, shared/quadric.py's normal_matrix, shared/iteration.py's add_prior,
 shared/prior.py's Prior.residuals, shared/predicted.py's _sphere_gradients, _variance_sum and
-_bias_spread, and shared/moments.py's to_float where the solver's modules call it.
+_bias_spread, shared/moments.py's to_float where the solver's modules call it, and the exact integer
+work of a trial state, shared/quadric.py's Problem.sums_at and Problem.exact (on a board each of its
+~300 big-integer operations a heap allocation; in C words of 512 bits, the same integers).
 
     from shared import linalg_native
     linalg_native.install()     # True: those now try linalgc first; False: none loaded
@@ -24,13 +26,17 @@ from shared import iteration, linalg, moments, predicted, prior, quadric, result
 
 _PYTHON = (linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3, quadric.normal_matrix,
            iteration.add_prior, prior.Prior.residuals, predicted._sphere_gradients, predicted._variance_sum,
-           predicted._bias_spread)
+           predicted._bias_spread, quadric.Problem.sums_at, quadric.Problem.exact)
 _TO_FLOAT = (quadric, start, iteration, result)     # the solver's modules that convert its exact sums
 _native = None
 # quadric's index tables as normal_matrix's C reads them (device/native/solver_body.h): one bytes
 _TABLES = bytes([i for row in quadric._IDX4 for i in row] + [c * d for c in quadric.W_C for d in quadric.W_C]
                 + [i for row in quadric._IDX3 for i in row] + list(quadric.W_C)
                 + [i for row in quadric._IDX2M for i in row])
+# and as exact's reads them (device/native/exact_body.h): _IDX4, _IDX3, _IDX2, _IDX1
+_EXACT = bytes([i for row in quadric._IDX4 for i in row] + [i for row in quadric._IDX3 for i in row] + quadric._IDX2
+               + quadric._IDX1)
+_COUNT = moments.COUNT
 
 
 def _cholesky(a, num):
@@ -83,6 +89,24 @@ def _bias_spread(grads, bias, dirs, centred, num):
     return _PYTHON[9](grads, bias, dirs, centred, num) if total is None else total
 
 
+def _sums_at(self, f_int, near=None):
+    """Problem.sums_at in linalgc's words: the COUNT ints, then their words (a bytearray) at index
+    COUNT, which the next state's sums_at and exact read instead of the ints (the same integers)."""
+    if near is None:
+        src, c = _native.exact_words(self.scaled), f_int
+    else:
+        s, f_near = near
+        src = s[_COUNT] if len(s) > _COUNT else None
+        c = [f_int[0] - f_near[0], f_int[1] - f_near[1], f_int[2] - f_near[2]]
+    out = None if src is None else _native.recentre(src, c, moments._CHAINS)
+    return _PYTHON[10](self, f_int, None if near is None else (near[0][:_COUNT], near[1])) if out is None else out
+
+
+def _exact(self, s, a_int):
+    out = _native.exact(s[_COUNT], a_int, _EXACT, 3 * quadric.FRAC) if len(s) > _COUNT else None
+    return _PYTHON[11](self, s, a_int) if out is None else out
+
+
 def install():
     """These through linalgc where it is loaded and matches this interpreter's floats."""
     global _native
@@ -94,6 +118,7 @@ def install():
     quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _normal_matrix, _add_prior, _residuals
     predicted._sphere_gradients, predicted._variance_sum, predicted._bias_spread = (_sphere_gradients, _variance_sum,
                                                                                    _bias_spread)
+    quadric.Problem.sums_at, quadric.Problem.exact = _sums_at, _exact
     for module in _TO_FLOAT:
         module.to_float = _native.to_float     # (an int always: a TypeError for anything else, as the Python's)
     return True
@@ -102,6 +127,7 @@ def install():
 def uninstall():
     linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3 = _PYTHON[:4]
     quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _PYTHON[4:7]
-    predicted._sphere_gradients, predicted._variance_sum, predicted._bias_spread = _PYTHON[7:]
+    predicted._sphere_gradients, predicted._variance_sum, predicted._bias_spread = _PYTHON[7:10]
+    quadric.Problem.sums_at, quadric.Problem.exact = _PYTHON[10:]
     for module in _TO_FLOAT:
         module.to_float = moments.to_float

@@ -7,8 +7,10 @@ same inputs: shared/linalg.py's cholesky, cho_solve, solve_spd and eigh3 (random
 positive definite matrices of 1 to 12 rows, indefinite and singular ones, zero divisors, nearly diagonal and
 overflowing 3x3 ones), shared/quadric.py's normal_matrix, shared/iteration.py's add_prior, shared/prior.py's
 Prior.residuals (the physical prior and a previous calibration's), shared/predicted.py's _sphere_gradients,
-_variance_sum and _bias_spread (random, zeros of both signs, overflowing) and shared/moments.py's to_float (ints
-of every size and sign, past the module's table of powers, bools), and what the module must hand back to
+_variance_sum and _bias_spread (random, zeros of both signs, overflowing), shared/moments.py's to_float (ints
+of every size and sign, past the module's table of powers, bools) and shared/quadric.py's Problem.sums_at and
+Problem.exact in 512-bit words (tests/micropython/exact_cases.py: centres and quadrics of 0 to 70 bits, sums up
+to past 2**500 where the module must decline), and what the module must hand back to
 Python (ints, nan, inf, tuples, ragged rows, 13 rows, a None where a sum is read, a quick fit's directions); then
 whole solves of a distorted sphere: every result the same bits and every exception the same. Where the module
 loads: the 64-bit unix builds (x64; the pip micropython's doubles, kind "d", the float32 build's binary32, "f")
@@ -30,7 +32,7 @@ from tests.test_native_sums import LOADS_NATMODS, _need_natmod, on_the_emulated_
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(REPO, "tests", "micropython", "native_linalg.py")
 SOURCES = sorted("shared/" + f for f in os.listdir(os.path.join(REPO, "shared")) if f.endswith(".py")) + [
-    "tests/micropython/lcg.py", "desktop/bench/micropython-scripts/cortexm_core.py"]
+    "tests/micropython/lcg.py", "tests/micropython/exact_cases.py", "desktop/bench/micropython-scripts/cortexm_core.py"]
 # the float the module works in where it loads: the interpreter's own; None: it declines (30-bit floats)
 KIND = {"micropython": "d", "micropython-float32": "f", "micropython-reprc": None, "rp2-pico": "f"}
 
@@ -46,8 +48,10 @@ def _check(text, kind):
     if kind is None:
         assert got["answered"] == 0
     else:
-        # most calls answered in C (the rest handed back on purpose: ints, nan, raises), the solves' too
+        # most calls answered in C (the rest handed back on purpose: ints, nan, raises), the solves' too,
+        # and the exact integer kernels among them (a trial state's sums and its g_A, T, RSS)
         assert got["answered"] > got["compared"]
+        assert got["answered_exact"] > 40, got
     return got
 
 

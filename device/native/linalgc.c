@@ -18,6 +18,9 @@
 //     linalgc.variance_sum(low, grads)                    # each a float result or None
 //     linalgc.bias_spread(grads, bias, centred)
 //     linalgc.to_float(x, exponent)  # shared/moments.py's to_float by the interpreter's own operations
+//     linalgc.exact_words(sums)             # the 35 power sums as words (a bytearray), or None
+//     linalgc.recentre(words, c, chains)    # moments.recentred: the 35 ints, then their words; or None
+//     linalgc.exact(words, a_int, tables, f3)   # quadric's Problem.exact: (g_A, T, RSS), or None (exact_body.h)
 //
 // Word for word shared/linalg.py's, in the interpreter's own float: the same operations in the same
 // order, each rounded once as MicroPython rounds it (IEEE 754 binary32 or binary64, round to nearest
@@ -286,6 +289,9 @@ static mp_obj_t to_float(size_t n_args, const mp_obj_t *args) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(to_float_obj, 1, 2, to_float);
 
+#include "exact_body.h"
+#include "exact_objects.h"
+
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
     MP_DYNRUNTIME_INIT_ENTRY
     float_type = mp_obj_get_type(mp_obj_new_float_from_f(0.0f));
@@ -308,6 +314,20 @@ mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *a
     // (heap objects: the module's dict keeps them for the collector)
     mp_store_global(MP_QSTR__POWERS, mp_obj_new_tuple(N_POWERS + 1, powers));
     mp_store_global(MP_QSTR_to_float, MP_OBJ_FROM_PTR(&to_float_obj));
+    // exact_body.h's: int.from_bytes and int.to_bytes (the functions themselves: no bound method kept)
+    mp_obj_t dest[2];
+    mp_load_method(MP_OBJ_FROM_PTR(int_type), MP_QSTR_from_bytes, dest);
+    e_from_bytes = dest[0];
+    mp_load_method(MP_OBJ_NEW_SMALL_INT(0), MP_QSTR_to_bytes, dest);
+    e_to_bytes = dest[0];
+    e_little = MP_OBJ_NEW_QSTR(MP_QSTR_little);
+    e_bytearray = mp_load_global(MP_QSTR_bytearray);
+    e_limits[1] = mp_binary_op(MP_BINARY_OP_LSHIFT, MP_OBJ_NEW_SMALL_INT(1), MP_OBJ_NEW_SMALL_INT(EBITS));
+    e_limits[0] = mp_unary_op(MP_UNARY_OP_NEGATIVE, e_limits[1]);
+    mp_store_global(MP_QSTR__EXACT, mp_obj_new_tuple(2, e_limits));
+    mp_store_global(MP_QSTR_exact_words, MP_OBJ_FROM_PTR(&exact_words_obj));
+    mp_store_global(MP_QSTR_recentre, MP_OBJ_FROM_PTR(&recentre_obj));
+    mp_store_global(MP_QSTR_exact, MP_OBJ_FROM_PTR(&exact_obj));
     mp_store_global(MP_QSTR_kind, MP_OBJ_FROM_PTR(&kind_obj));
     mp_store_global(MP_QSTR_cholesky, MP_OBJ_FROM_PTR(&cholesky_obj));
     mp_store_global(MP_QSTR_cho_solve, MP_OBJ_FROM_PTR(&cho_solve_obj));

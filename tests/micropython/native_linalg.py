@@ -119,6 +119,9 @@ def cases(rng, short):
     yield "eigh3", ([[1.0, 2.0], [2.0, 1.0]],)
     yield "eigh3", ([[1, 2, 0], [2, 1, 0], [0, 0, 5]],)
     yield from normal_cases(rng, short)
+    from exact_cases import exact_cases
+    from shared import quadric
+    yield from exact_cases(rng, short, quadric.Problem.sums_at)
 
 
 def sums35(rng, lo, hi):
@@ -229,7 +232,7 @@ _N = None
 
 
 KERNELS = ("cholesky", "cho_solve", "solve_spd", "eigh3", "normal_matrix", "add_prior", "residuals", "_sphere_gradients",
-           "_variance_sum", "_bias_spread", "to_float")
+           "_variance_sum", "_bias_spread", "sums_at", "exact", "to_float")
 
 
 def _python(name, args):
@@ -241,7 +244,7 @@ def _python(name, args):
 
 
 def _call(f, name, args):
-    if name in ("cho_solve", "residuals", "to_float"):
+    if name in ("cho_solve", "residuals", "to_float", "sums_at", "exact"):
         return f(*args)
     if name == "add_prior":
         h, g = args[0], args[1]
@@ -254,12 +257,15 @@ def _outcome(name, args, native):
     """The result's bytes, or the exception's class name."""
     args = tuple(copied(a) for a in args)
     from shared import iteration, predicted, prior, quadric
-    where = {"add_prior": iteration, "normal_matrix": quadric, "residuals": prior.Prior, "to_float": quadric}.get(name, _L)
+    where = {"add_prior": iteration, "normal_matrix": quadric, "residuals": prior.Prior, "to_float": quadric,
+             "sums_at": quadric.Problem, "exact": quadric.Problem}.get(name, _L)
     where = predicted if name.startswith("_") else where
     try:
         r = _call(getattr(where, name), name, args) if native else _python(name, args)
     except Exception as e:  # noqa: BLE001 - compared by class
         return e.__class__.__name__
+    if name in ("sums_at", "exact"):
+        return list(r[:35])     # ints compared as they are (the native's words after the 35: exact_cases.py)
     return bits(r)
 
 
@@ -321,7 +327,7 @@ def main(root, natmod=None, short=None):
     _L, _N = linalg, linalg_native
     installed = linalg_native.install()
     native = linalg_native._native
-    answered = [0]
+    answered = [0, 0]      # all calls, the exact integer kernels' (recentre, exact)
     if native is not None:
         # count the calls the native module answered itself (None: handed to Python)
         class Counting:
@@ -332,6 +338,7 @@ def main(root, natmod=None, short=None):
                     r = f(*a)
                     if r is not None:
                         answered[0] += 1
+                        answered[1] += name in ("recentre", "exact")
                     return r
                 return counted
         linalg_native._native = Counting()
@@ -350,7 +357,7 @@ def main(root, natmod=None, short=None):
     # to_float is installed as the native function itself (not counted in `answered`): which one the solver calls
     to_float = "python" if quadric.to_float is moments.to_float else "native"
     print(json.dumps({"path": "native" if installed else "python", "kind": None if native is None else native.kind(), "compared": compared,
-                      "differed": differed, "first": first, "answered": answered[0], "solves_differed": solved,
+                      "differed": differed, "first": first, "answered": answered[0], "answered_exact": answered[1], "solves_differed": solved,
                       "to_float": to_float}))
 
 

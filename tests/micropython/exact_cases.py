@@ -1,0 +1,59 @@
+# The exact integer kernels' cases for native_linalg.py (beside it): shared/quadric.py's Problem.sums_at
+# (moments.recentred) and Problem.exact, which linalgc.mpy runs in 512-bit words (device/native/exact_body.h)
+# where it declines nothing, and hands back to Python (None) where a bound reaches 2**500.
+# Yields (kernel name, args) with the Problem (or a stand-in holding sums) first: the Python's and the
+# native results must be the same ints (native_linalg.py compares a sums_at's first 35, its words after them
+# being read by the next sums_at and exact here: a wrong word shows there).
+
+
+class Sums:
+    """A Problem's stand-in for sums that no samples make (sums_at reads .scaled, exact .n)."""
+
+    def __init__(self, sums):
+        self.scaled = sums
+        self.n = sums[0]
+
+
+def _int(rng, bits):
+    """A random int of up to `bits` bits, either sign."""
+    x = rng.bits(min(bits, 30))
+    while bits > 30:
+        bits -= 30
+        x = (x << min(bits, 30)) | rng.bits(min(bits, 30))
+    return -x if rng.bits(1) else x
+
+
+def exact_cases(rng, short, sums_at):
+    """sums_at: the installed Problem.sums_at (native where linalgc loads), which makes the chains' sums."""
+    from cortexm_core import sphere     # the benches' distorted sphere of 24-bit codes
+    from shared.fit import EllipsoidFit
+    from shared.quadric import FRAC, Problem
+    n = 60 if short else 400
+    pts = sphere(n)
+    fit = EllipsoidFit()
+    for k in range(0, 3 * n, 3):
+        fit.add(pts[k], pts[k + 1], pts[k + 2])
+    pb = Problem(fit.sums(), float)
+    one = 1 << FRAC
+    # centres: none, small steps, an iteration's (~2**40), near the 64-bit limit, past it (declined)
+    for bits in (0, 3, 12, 30, 41, 45, 62, 63, 64, 70) if not short else (0, 12, 41, 70):
+        for r in range(1 if short else 3):
+            f = [_int(rng, bits) for _ in range(3)]
+            if r == 1:
+                f[rng.bits(2) % 3] = 0                 # an axis the centre does not move along
+            yield "sums_at", (pb, f, None)
+            s = sums_at(pb, f, None)
+            g = [f[i] + _int(rng, min(bits, 36)) for i in range(3)]
+            yield "sums_at", (pb, g, (s, f))           # from the sums of a state nearby (its words)
+            for abits in (40, 41, 62, 63, 64, 70) if not short else (41, 70):
+                a = [one + _int(rng, abits - 2) for _ in range(3)] + [_int(rng, abits) for _ in range(3)]
+                yield "exact", (pb, s, a)
+    # sums no samples make, from small to past 2**500: declined where a result could reach it
+    for top in (8, 100, 300, 380, 440, 499, 500, 501, 700):
+        fake = Sums([1 + rng.bits(20)] + [_int(rng, top - rng.bits(3)) for _ in range(34)])
+        for cbits in (0, 1, 20, 60):
+            f = [_int(rng, cbits) for _ in range(3)]
+            yield "sums_at", (fake, f, None)
+            s = sums_at(fake, f, None)
+            yield "exact", (fake, s, [_int(rng, 41) for _ in range(6)])
+    yield "exact", (pb, sums_at(pb, [0, 0, 0], None), [one, one, one, 0, 0, 0.5])     # a float: Python's
