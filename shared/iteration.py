@@ -80,7 +80,7 @@ def system(pb, st, gradient_only=False):
         h = None
         g = pb.gradient(st.ga, st.t, sym(st.a))
     else:
-        h, g, _ = pb.normal_equations(st.s, st.a_int, st.ga, st.t, st.a)
+        h, g = pb.normal_equations(st.s, st.ga, st.t, st.a)
     if st.rho:
         lam = pb.value(st.rss, -6 * FRAC) / (pb.nf * pb.nf)  # (RSS/N)/N
         add_prior(h, g, st.rho, st.jac, lam, pb.num(0.0))

@@ -2,8 +2,9 @@
 solve_spd and eigh3, shared/quadric.py's normal_matrix, shared/iteration.py's add_prior,
 shared/prior.py's Prior.residuals, shared/predicted.py's _sphere_gradients, _variance_sum and
 _bias_spread, shared/moments.py's to_float where the solver's modules call it, and the exact integer
-work of a trial state, shared/quadric.py's Problem.sums_at and Problem.exact (on a board each of its
-~300 big-integer operations a heap allocation; in C words of 512 bits, the same integers).
+work of a trial state and of the problem's frame, shared/quadric.py's Problem.sums_at, Problem.exact,
+frame_means, shifted and scaled (on a board each of a state's ~300 big-integer operations is a heap
+allocation; in C words of 512 bits, the same integers).
 
     from shared import linalg_native
     linalg_native.install()     # True: those now try linalgc first; False: none loaded
@@ -26,7 +27,8 @@ from shared import iteration, linalg, moments, predicted, prior, quadric, result
 
 _PYTHON = (linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3, quadric.normal_matrix,
            iteration.add_prior, prior.Prior.residuals, predicted._sphere_gradients, predicted._variance_sum,
-           predicted._bias_spread, quadric.Problem.sums_at, quadric.Problem.exact)
+           predicted._bias_spread, quadric.Problem.sums_at, quadric.Problem.exact, quadric.frame_means, quadric.shifted,
+           quadric.scaled)
 _TO_FLOAT = (quadric, start, iteration, result)     # the solver's modules that convert its exact sums
 _native = None
 # quadric's index tables as normal_matrix's C reads them (device/native/solver_body.h): one bytes
@@ -90,21 +92,54 @@ def _bias_spread(grads, bias, dirs, centred, num):
 
 
 def _sums_at(self, f_int, near=None):
-    """Problem.sums_at in linalgc's words: the COUNT ints, then their words (a bytearray) at index
-    COUNT, which the next state's sums_at and exact read instead of the ints (the same integers)."""
+    """Problem.sums_at in linalgc's words: COUNT Nones, then the sums' words (a bytearray) at index
+    COUNT, which the next state's sums_at, exact and frame_means read (the same integers); their
+    ints are made only where the Python needs them (ints())."""
     if near is None:
-        src, c = _native.exact_words(self.scaled), f_int
+        sums, c = self.scaled, f_int
     else:
-        s, f_near = near
-        src = s[_COUNT] if len(s) > _COUNT else None
+        sums, f_near = near
         c = [f_int[0] - f_near[0], f_int[1] - f_near[1], f_int[2] - f_near[2]]
+    src = sums[_COUNT] if len(sums) > _COUNT else _native.exact_words(sums)
     out = None if src is None else _native.recentre(src, c, moments._CHAINS)
-    return _PYTHON[10](self, f_int, None if near is None else (near[0][:_COUNT], near[1])) if out is None else out
+    return moments.recentred(ints(sums), c) if out is None else out     # (as the Python's sums_at)
+
+
+def ints(s):
+    """The sums s as ints: s, or where _sums_at left them None, made from its words."""
+    return _native.exact_ints(s[_COUNT]) if s[0] is None else s
 
 
 def _exact(self, s, a_int):
     out = _native.exact(s[_COUNT], a_int, _EXACT, 3 * quadric.FRAC) if len(s) > _COUNT else None
-    return _PYTHON[11](self, s, a_int) if out is None else out
+    return _PYTHON[11](self, ints(s), a_int) if out is None else out
+
+
+def _shifted(sums, scale, centre):
+    """moments.shifted for the Problem's sums about its centre C (scale 1): the ints (its covariance and
+    the initial guesses read them), then their words (for _scaled)."""
+    words = _native.exact_words(sums) if scale == 1 else None
+    out = None if words is None else _native.recentre(words, centre, moments._CHAINS)
+    if out is None:
+        return _PYTHON[13](sums, scale, centre)
+    u = _native.exact_ints(out[_COUNT])
+    u.append(out[_COUNT])
+    return u
+
+
+def _scaled(sums, scale):
+    """moments.scaled by a power of two (the Problem's frame) from the sums' words: as _sums_at's."""
+    out = None
+    if len(sums) > _COUNT and scale > 0 and not scale & (scale - 1):
+        out = _native.scaled_words(sums[_COUNT], moments.bit_length(scale) - 1, moments.DEGREE)
+    return _PYTHON[14](ints(sums), scale) if out is None else out
+
+
+def _frame_means(s, indices, num):
+    out = None
+    if num is float and len(s) > _COUNT:
+        out = _native.frame_floats(s[_COUNT], bytes(indices), moments.DEGREE, quadric.FRAC)
+    return _PYTHON[12](ints(s), indices, num) if out is None else out
 
 
 def install():
@@ -118,7 +153,8 @@ def install():
     quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _normal_matrix, _add_prior, _residuals
     predicted._sphere_gradients, predicted._variance_sum, predicted._bias_spread = (_sphere_gradients, _variance_sum,
                                                                                    _bias_spread)
-    quadric.Problem.sums_at, quadric.Problem.exact = _sums_at, _exact
+    quadric.Problem.sums_at, quadric.Problem.exact, quadric.frame_means = _sums_at, _exact, _frame_means
+    quadric.shifted, quadric.scaled = _shifted, _scaled
     for module in _TO_FLOAT:
         module.to_float = _native.to_float     # (an int always: a TypeError for anything else, as the Python's)
     return True
@@ -128,6 +164,6 @@ def uninstall():
     linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3 = _PYTHON[:4]
     quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _PYTHON[4:7]
     predicted._sphere_gradients, predicted._variance_sum, predicted._bias_spread = _PYTHON[7:10]
-    quadric.Problem.sums_at, quadric.Problem.exact = _PYTHON[10:]
+    quadric.Problem.sums_at, quadric.Problem.exact, quadric.frame_means, quadric.shifted, quadric.scaled = _PYTHON[10:]
     for module in _TO_FLOAT:
         module.to_float = moments.to_float

@@ -15,7 +15,7 @@ data gradient sum w r, sum v r and the residual sum of squares are computed
 type (shared.solver explains why that is enough).
 """
 
-from shared.moments import DEGREE, INDEX, ORDER, bit_length, mean_centre, recentred, scaled, shifted, to_float
+from shared.moments import COUNT, DEGREE, INDEX, ORDER, bit_length, mean_centre, recentred, scaled, shifted, to_float
 
 FRAC = 40  # fractional bits of the fixed-point parameters (relative 1e-12)
 
@@ -41,6 +41,16 @@ _MEANS = bytes([INDEX[e] for e in ORDER if 2 <= e[0] + e[1] + e[2] <= 4])
 
 def sym(a):
     return [[a[0], a[3], a[4]], [a[3], a[1], a[5]], [a[4], a[5], a[2]]]
+
+
+def frame_means(s, indices, num):
+    """The power sums s at `indices` as floats in the frame, each over 2^(FRAC degree) (times nf their
+    means), in a list by storage index (None elsewhere). shared.linalg_native puts linalgc's in its
+    place on a board that has it (from the sums' words: the same bits)."""
+    mean = [None] * COUNT
+    for idx in indices:
+        mean[idx] = num(to_float(s[idx], -DEGREE[idx] * FRAC))
+    return mean
 
 
 def normal_matrix(mean, am, nf, num):
@@ -146,22 +156,12 @@ class Problem:
     def value(self, x, exponent):
         return self.num(to_float(x, exponent))
 
-    def normal_equations(self, s, a_int, ga, t, a=None):
-        """Per-sample normal matrix H (9x9) and gradient g of (1) at the state.
-
-        a: the floats of a_int where the caller has them (the same numbers). Each power sum
-        is converted to a float once (the symmetric blocks share them), each entry formed
-        by the same operations as if written out.
-        """
-        num = self.num
-        if a is None:
-            a = [self.value(x, -FRAC) for x in a_int]
+    def normal_equations(self, s, ga, t, a):
+        """Per-sample normal matrix H (9x9) and gradient g of (1) at the state (a: its quadric's
+        floats). Each power sum of degree 2..4 the blocks use is converted to a float once (the
+        symmetric blocks share them), each entry formed by the same operations as if written out."""
         am = sym(a)
-        # the mean of each power sum of degree 2..4 the blocks use, by storage index
-        mean = [None] * len(s)
-        for idx in _MEANS:
-            mean[idx] = num(to_float(s[idx], -DEGREE[idx] * FRAC))
-        return normal_matrix(mean, am, self.nf, num), self.gradient(ga, t, am), a
+        return normal_matrix(frame_means(s, _MEANS, self.num), am, self.nf, self.num), self.gradient(ga, t, am)
 
     def gradient(self, ga, t, am):
         """Per-sample gradient g of (1) from the exact (g_A, T) and A (3x3)."""
@@ -188,8 +188,9 @@ class Problem:
         num = self.num
         nf = self.nf
         am = sym(a)
-        m2 = [[self.value(s[_IDX2M[i][j]], -2 * FRAC) / nf for j in range(3)] for i in range(3)]
-        m1 = [self.value(s[_IDX1[i]], -FRAC) / nf for i in range(3)]
+        mean = frame_means(s, range(1, 10), num)     # the sums of degree 1 and 2
+        m2 = [[mean[_IDX2M[i][j]] / nf for j in range(3)] for i in range(3)]
+        m1 = [mean[_IDX1[i]] / nf for i in range(3)]
         a_s = [[am[i][0] * m2[0][j] + am[i][1] * m2[1][j] + am[i][2] * m2[2][j] for j in range(3)] for i in range(3)]
         a2 = [[am[i][0] * am[0][j] + am[i][1] * am[1][j] + am[i][2] * am[2][j] for j in range(3)] for i in range(3)]
         tr = am[0][0] + am[1][1] + am[2][2]

@@ -11,6 +11,7 @@
 // runs) where a bound reaches EBITS; inputs past EBITS bits are declined when read.
 
 #include "wide.h"            // mul32: 32 x 32 -> 64 bits where the Cortex-M0+ lacks it
+#include "py/smallint.h"    // a small int's range (word_float)
 
 #define EW (16)                 // 32-bit words of an exact number: 512 bits
 #define EBITS (500)             // results and inputs held only below 2**EBITS in magnitude
@@ -101,6 +102,16 @@ static void e_extend(uint32_t *x, size_t n) {
 // the words that hold a signed number of `bits` bits of magnitude
 static inline size_t e_words(mp_int_t bits) {
     return bits / 32 + 1;
+}
+
+// out = x >> shift rounded down (a floor, as Python shifts a negative int), all EW words
+static inline void e_shift_right(uint32_t *out, const uint32_t *x, size_t shift) {
+    uint32_t sign = e_negative(x) ? 0xffffffff : 0;
+    size_t w = shift / 32, b = shift % 32;
+    for (size_t i = 0; i < EW; i++) {
+        uint32_t lo = i + w < EW ? x[i + w] : sign, hi = i + w + 1 < EW ? x[i + w + 1] : sign;
+        out[i] = b ? (lo >> b) | (hi << (32 - b)) : lo;
+    }
 }
 
 // a magnitude under 2**64 in m[0..1] and its sign, from x; false if |x| >= 2**64

@@ -97,7 +97,7 @@ static mp_obj_t exact_words(mp_obj_t sums) {
 static MP_DEFINE_CONST_FUN_OBJ_1(exact_words_obj, exact_words);
 
 // recentre(words, c, chains): moments.recentred of the sums in words on c (3 ints), chains
-// moments._CHAINS: a list of the ECOUNT ints and, after them, their words; or None
+// moments._CHAINS: a list of ECOUNT Nones (their ints: exact_ints) and, after them, the words; or None
 static mp_obj_t recentre(mp_obj_t src, mp_obj_t c, mp_obj_t chains) {
     mp_obj_t *ci, *chi;
     const uint32_t *in = e_sums(src);
@@ -132,7 +132,7 @@ static mp_obj_t recentre(mp_obj_t src, mp_obj_t c, mp_obj_t chains) {
     }
     mp_obj_t items[ECOUNT + 1];
     for (size_t i = 0; i < ECOUNT; i++) {
-        items[i] = e_obj(s + EW * i);
+        items[i] = mp_const_none;       // as ints only where asked for (exact_ints): ~6 k cycles each on a Pico
     }
     items[ECOUNT] = words;
     return mp_obj_new_list(ECOUNT + 1, items);
@@ -171,3 +171,60 @@ static mp_obj_t exact(size_t n_args, const mp_obj_t *args) {
     return mp_obj_new_tuple(3, res);
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(exact_obj, 4, 4, exact);
+
+// exact_ints(words): the ECOUNT ints of a sums' words (a list), or None
+static mp_obj_t exact_ints(mp_obj_t words) {
+    const uint32_t *s = e_sums(words);
+    if (!s) {
+        return mp_const_none;
+    }
+    mp_obj_t items[ECOUNT];
+    for (size_t i = 0; i < ECOUNT; i++) {
+        items[i] = e_obj(s + EW * i);
+    }
+    return mp_obj_new_list(ECOUNT, items);
+}
+static MP_DEFINE_CONST_FUN_OBJ_1(exact_ints_obj, exact_ints);
+
+// frame_floats(words, indices, degrees, frac): quadric.frame_means's list from the sums' words, or None
+static mp_obj_t frame_floats(size_t n_args, const mp_obj_t *args) {
+    mp_buffer_info_t idx, deg;
+    const uint32_t *s = e_sums(args[0]);
+    if (!s || !mp_get_buffer(args[1], &idx, MP_BUFFER_READ) || !mp_get_buffer(args[2], &deg, MP_BUFFER_READ)
+        || deg.len != ECOUNT || !mp_obj_is_small_int(args[3])) {
+        return mp_const_none;
+    }
+    for (size_t k = 0; k < idx.len; k++) {
+        if (((const uint8_t *)idx.buf)[k] >= ECOUNT) {
+            return mp_const_none;
+        }
+    }
+    return IN_USE(frame_floats, s, idx.buf, idx.len, deg.buf, MP_OBJ_SMALL_INT_VALUE(args[3]));
+}
+static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(frame_floats_obj, 4, 4, frame_floats);
+
+// scaled_words(words, bits, degrees): moments.scaled(sums, 2**bits) of the sums' words, each sum shifted
+// by bits times its degree: a list of ECOUNT Nones and the words (as recentre's); None past EBITS
+static mp_obj_t scaled_words(mp_obj_t words, mp_obj_t bits_in, mp_obj_t degrees) {
+    mp_buffer_info_t deg;
+    const uint32_t *in = e_sums(words);
+    if (!in || !mp_obj_is_small_int(bits_in) || !mp_get_buffer(degrees, &deg, MP_BUFFER_READ) || deg.len != ECOUNT) {
+        return mp_const_none;
+    }
+    mp_int_t bits = MP_OBJ_SMALL_INT_VALUE(bits_in);
+    const uint8_t *d = deg.buf;
+    for (size_t i = 0; i < ECOUNT; i++) {
+        if (bits < 0 || bits > EBITS || d[i] > 4 || e_bits(in + EW * i) + bits * d[i] >= EBITS) {
+            return mp_const_none;
+        }
+    }
+    uint32_t *s;
+    mp_obj_t items[ECOUNT + 1];
+    items[ECOUNT] = e_new(&s);       // (zeroed)
+    for (size_t i = 0; i < ECOUNT; i++) {
+        e_add_shifted(s + EW * i, in + EW * i, bits * d[i], false, EW);
+        items[i] = mp_const_none;
+    }
+    return mp_obj_new_list(ECOUNT + 1, items);
+}
+static MP_DEFINE_CONST_FUN_OBJ_3(scaled_words_obj, scaled_words);

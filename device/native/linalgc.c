@@ -21,6 +21,9 @@
 //     linalgc.exact_words(sums)             # the 35 power sums as words (a bytearray), or None
 //     linalgc.recentre(words, c, chains)    # moments.recentred: the 35 ints, then their words; or None
 //     linalgc.exact(words, a_int, tables, f3)   # quadric's Problem.exact: (g_A, T, RSS), or None (exact_body.h)
+//     linalgc.exact_ints(words)             # the 35 ints of the words
+//     linalgc.frame_floats(words, indices, degrees, frac)   # quadric.frame_means's floats, or None
+//     linalgc.scaled_words(words, bits, degrees)            # moments.scaled by 2**bits, as recentre's
 //
 // Word for word shared/linalg.py's, in the interpreter's own float: the same operations in the same
 // order, each rounded once as MicroPython rounds it (IEEE 754 binary32 or binary64, round to nearest
@@ -52,6 +55,9 @@ static inline size_t items_of(mp_obj_t o, mp_obj_t **items) {
     mp_obj_get_array_dyn(o, &n, items);
     return n <= N_MAX ? n : 0;
 }
+
+#include "exact_body.h"      // the exact integer work in words (the float bodies read sums from them)
+extern mp_obj_t ldexp_fn;   // math.ldexp (below)
 
 #if defined(__i386__)
 #define HAS_FLOAT (0)       // x87: a float held in 80 bits between operations (kind() None)
@@ -148,6 +154,7 @@ static MP_DEFINE_CONST_FUN_OBJ_0(kind_obj, kind);
 #define sphere_gradients_f(...) mp_const_none
 #define variance_sum_f(...) mp_const_none
 #define bias_spread_f(...) mp_const_none
+#define frame_floats_f(...) mp_const_none
 #endif
 #if !HAS_DOUBLE
 #define cholesky_d(...) mp_const_none
@@ -160,6 +167,7 @@ static MP_DEFINE_CONST_FUN_OBJ_0(kind_obj, kind);
 #define sphere_gradients_d(...) mp_const_none
 #define variance_sum_d(...) mp_const_none
 #define bias_spread_d(...) mp_const_none
+#define frame_floats_d(...) mp_const_none
 #endif
 #define IN_USE(name, ...) (kind_in_use == 'd' ? name##_d(__VA_ARGS__) : kind_in_use == 'f' ? name##_f(__VA_ARGS__) : mp_const_none)
 
@@ -289,7 +297,6 @@ static mp_obj_t to_float(size_t n_args, const mp_obj_t *args) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(to_float_obj, 1, 2, to_float);
 
-#include "exact_body.h"
 #include "exact_objects.h"
 
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
@@ -328,6 +335,9 @@ mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *a
     mp_store_global(MP_QSTR_exact_words, MP_OBJ_FROM_PTR(&exact_words_obj));
     mp_store_global(MP_QSTR_recentre, MP_OBJ_FROM_PTR(&recentre_obj));
     mp_store_global(MP_QSTR_exact, MP_OBJ_FROM_PTR(&exact_obj));
+    mp_store_global(MP_QSTR_exact_ints, MP_OBJ_FROM_PTR(&exact_ints_obj));
+    mp_store_global(MP_QSTR_frame_floats, MP_OBJ_FROM_PTR(&frame_floats_obj));
+    mp_store_global(MP_QSTR_scaled_words, MP_OBJ_FROM_PTR(&scaled_words_obj));
     mp_store_global(MP_QSTR_kind, MP_OBJ_FROM_PTR(&kind_obj));
     mp_store_global(MP_QSTR_cholesky, MP_OBJ_FROM_PTR(&cholesky_obj));
     mp_store_global(MP_QSTR_cho_solve, MP_OBJ_FROM_PTR(&cho_solve_obj));

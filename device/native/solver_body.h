@@ -270,3 +270,49 @@ static mp_obj_t RNAME(prior_residuals)(const mp_obj_t *attrs, mp_obj_t a_in, mp_
     out[1] = mp_obj_new_list(n, rows);
     return mp_obj_new_tuple(2, out);
 }
+
+// moments.to_float(x, exponent) of the words x (exact_body.h) as this interpreter makes it: the top 53
+// bits by a floor shift, float() of that int (a small int's C conversion; a bigger one's py/mpz.c
+// mpz_as_float, its 16-bit digits from the top: val = val * 2**16 + d, each sum rounded), math.ldexp
+// (exact where the result is a normal number: its exponent field moved; the interpreter's own elsewhere)
+static mp_obj_t RNAME(word_float)(const uint32_t *x, mp_int_t exponent) {
+    uint32_t y[EW];
+    mp_int_t extra = e_bits(x) - 53;
+    e_shift_right(y, x, extra > 0 ? extra : 0);
+    exponent += extra > 0 ? extra : 0;
+    int64_t v = (int64_t)((uint64_t)y[0] | (uint64_t)y[1] << 32);     // |v| <= 2**53
+    REAL val = 0;
+    if (v >= MP_SMALL_INT_MIN && v <= MP_SMALL_INT_MAX) {
+        val = (REAL)(mp_int_t)v;
+    } else {
+        uint64_t m = v < 0 ? -(uint64_t)v : (uint64_t)v;
+        for (int k = 48; k >= 0; k -= 16) {
+            val = val * (REAL)65536 + (REAL)(uint32_t)((m >> k) & 0xffff);
+        }
+        val = v < 0 ? -val : val;
+    }
+    const size_t mant = sizeof(REAL) == 4 ? 23 : 52;
+    const mp_int_t top = sizeof(REAL) == 4 ? 0xff : 0x7ff;
+    union { REAL r; RUINT u; } b = {val};
+    mp_int_t e = (mp_int_t)((b.u >> mant) & (RUINT)top) + exponent;
+    if (val == 0 || (e >= 1 && e < top)) {
+        b.u = val == 0 ? b.u : (b.u & ~((RUINT)top << mant)) | ((RUINT)e << mant);
+        return RNEW(b.r);
+    }
+    mp_obj_t call[2] = {RNEW(val), MP_OBJ_NEW_SMALL_INT(exponent)};
+    return mp_call_function_n_kw(ldexp_fn, 2, 0, call);
+}
+
+// quadric.frame_means(s, indices, num) for num float from the sums' words (linalg_native._sums_at): the
+// sums at `indices` as floats in the frame, to_float(s[i], -degrees[i] frac), in a list by storage index
+static mp_obj_t RNAME(frame_floats)(const uint32_t *s, const uint8_t *indices, size_t n, const uint8_t *degrees,
+                                    mp_int_t frac) {
+    mp_obj_t out[N_SUMS];
+    for (size_t i = 0; i < N_SUMS; i++) {
+        out[i] = mp_const_none;
+    }
+    for (size_t k = 0; k < n; k++) {
+        out[indices[k]] = RNAME(word_float)(s + EW * indices[k], -(mp_int_t)degrees[indices[k]] * frac);
+    }
+    return mp_obj_new_list(N_SUMS, out);
+}

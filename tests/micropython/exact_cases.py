@@ -1,9 +1,9 @@
 # The exact integer kernels' cases for native_linalg.py (beside it): shared/quadric.py's Problem.sums_at
 # (moments.recentred) and Problem.exact, which linalgc.mpy runs in 512-bit words (device/native/exact_body.h)
 # where it declines nothing, and hands back to Python (None) where a bound reaches 2**500.
-# Yields (kernel name, args) with the Problem (or a stand-in holding sums) first: the Python's and the
-# native results must be the same ints (native_linalg.py compares a sums_at's first 35, its words after them
-# being read by the next sums_at and exact here: a wrong word shows there).
+# And quadric.frame_means, shifted and scaled (the problem's frame), the sums as floats in the frame (from the words there). Yields (kernel name, args):
+# the Python's and the native results must be the same ints and floats (native_linalg.py compares a
+# sums_at's ints, made from its words, and the next sums_at, exact and frame_means read the words).
 
 
 class Sums:
@@ -23,11 +23,12 @@ def _int(rng, bits):
     return -x if rng.bits(1) else x
 
 
-def exact_cases(rng, short, sums_at):
-    """sums_at: the installed Problem.sums_at (native where linalgc loads), which makes the chains' sums."""
+def exact_cases(rng, short, sums_at, shifted):
+    """sums_at, shifted: the installed Problem.sums_at and quadric.shifted (native where linalgc loads),
+    which make the sums the next cases read."""
     from cortexm_core import sphere     # the benches' distorted sphere of 24-bit codes
     from shared.fit import EllipsoidFit
-    from shared.quadric import FRAC, Problem
+    from shared.quadric import _MEANS, FRAC, Problem
     n = 60 if short else 400
     pts = sphere(n)
     fit = EllipsoidFit()
@@ -35,6 +36,12 @@ def exact_cases(rng, short, sums_at):
         fit.add(pts[k], pts[k + 1], pts[k + 2])
     pb = Problem(fit.sums(), float)
     one = 1 << FRAC
+    # the problem's frame: the sums about its centre, then scaled by powers of two (3: Python's)
+    for centre in (pb.centre, [0, 0, 0], [_int(rng, 24) for _ in range(3)], [_int(rng, 70) for _ in range(3)]):
+        yield "shifted", (fit.sums(), 1, centre)
+    u = shifted(fit.sums(), 1, pb.centre)
+    for scale in (1, 2, 1 << 17, 1 << 40, 1 << 120, 3):
+        yield "scaled", (u, scale)
     # centres: none, small steps, an iteration's (~2**40), near the 64-bit limit, past it (declined)
     for bits in (0, 3, 12, 30, 41, 45, 62, 63, 64, 70) if not short else (0, 12, 41, 70):
         for r in range(1 if short else 3):
@@ -48,6 +55,8 @@ def exact_cases(rng, short, sums_at):
             for abits in (40, 41, 62, 63, 64, 70) if not short else (41, 70):
                 a = [one + _int(rng, abits - 2) for _ in range(3)] + [_int(rng, abits) for _ in range(3)]
                 yield "exact", (pb, s, a)
+            yield "frame_means", (s, _MEANS, float)
+            yield "frame_means", (s, range(1, 10), float)
     # sums no samples make, from small to past 2**500: declined where a result could reach it
     for top in (8, 100, 300, 380, 440, 499, 500, 501, 700):
         fake = Sums([1 + rng.bits(20)] + [_int(rng, top - rng.bits(3)) for _ in range(34)])
@@ -56,4 +65,5 @@ def exact_cases(rng, short, sums_at):
             yield "sums_at", (fake, f, None)
             s = sums_at(fake, f, None)
             yield "exact", (fake, s, [_int(rng, 41) for _ in range(6)])
+            yield "frame_means", (s, range(35), float)     # small ones under a float's range, big ones past it
     yield "exact", (pb, sums_at(pb, [0, 0, 0], None), [one, one, one, 0, 0, 0.5])     # a float: Python's

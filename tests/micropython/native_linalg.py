@@ -121,7 +121,7 @@ def cases(rng, short):
     yield from normal_cases(rng, short)
     from exact_cases import exact_cases
     from shared import quadric
-    yield from exact_cases(rng, short, quadric.Problem.sums_at)
+    yield from exact_cases(rng, short, quadric.Problem.sums_at, quadric.shifted)
 
 
 def sums35(rng, lo, hi):
@@ -232,11 +232,18 @@ _N = None
 
 
 KERNELS = ("cholesky", "cho_solve", "solve_spd", "eigh3", "normal_matrix", "add_prior", "residuals", "_sphere_gradients",
-           "_variance_sum", "_bias_spread", "sums_at", "exact", "to_float")
+           "_variance_sum", "_bias_spread", "sums_at", "exact", "frame_means", "shifted", "scaled", "to_float")
 
 
 def _python(name, args):
-    """The Python's own function (the one install() replaced)."""
+    """The Python's own function (the one install() replaced), on the sums as ints (linalgc's are words)."""
+    if name == "sums_at":
+        from exact_cases import Sums
+        args = (Sums(_N.ints(args[0].scaled)), args[1], None if args[2] is None else (_N.ints(args[2][0]), args[2][1]))
+    elif name == "exact":
+        args = (args[0], _N.ints(args[1]), args[2])
+    elif name in ("frame_means", "scaled"):
+        args = (_N.ints(args[0]),) + args[1:]
     if name == "to_float":
         from shared import moments
         return moments.to_float(*args)
@@ -244,7 +251,7 @@ def _python(name, args):
 
 
 def _call(f, name, args):
-    if name in ("cho_solve", "residuals", "to_float", "sums_at", "exact"):
+    if name in ("cho_solve", "residuals", "to_float", "sums_at", "exact", "frame_means", "shifted", "scaled"):
         return f(*args)
     if name == "add_prior":
         h, g = args[0], args[1]
@@ -258,14 +265,15 @@ def _outcome(name, args, native):
     args = tuple(copied(a) for a in args)
     from shared import iteration, predicted, prior, quadric
     where = {"add_prior": iteration, "normal_matrix": quadric, "residuals": prior.Prior, "to_float": quadric,
-             "sums_at": quadric.Problem, "exact": quadric.Problem}.get(name, _L)
+             "sums_at": quadric.Problem, "exact": quadric.Problem, "frame_means": quadric, "shifted": quadric,
+             "scaled": quadric}.get(name, _L)
     where = predicted if name.startswith("_") else where
     try:
         r = _call(getattr(where, name), name, args) if native else _python(name, args)
     except Exception as e:  # noqa: BLE001 - compared by class
         return e.__class__.__name__
-    if name in ("sums_at", "exact"):
-        return list(r[:35])     # ints compared as they are (the native's words after the 35: exact_cases.py)
+    if name in ("sums_at", "exact", "shifted", "scaled"):
+        return list(r if name == "exact" else _N.ints(r)[:35])   # ints as they are (and a native's from its words)
     return bits(r)
 
 
