@@ -28,7 +28,7 @@ from shared import iteration, linalg, moments, predicted, prior, quadric, result
 _PYTHON = (linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3, quadric.normal_matrix,
            iteration.add_prior, prior.Prior.residuals, predicted._sphere_gradients, predicted._variance_sum,
            predicted._bias_spread, quadric.Problem.sums_at, quadric.Problem.exact, quadric.frame_means, quadric.shifted,
-           quadric.scaled)
+           quadric.scaled, quadric.Problem.noise_gradient)
 _TO_FLOAT = (quadric, start, iteration, result)     # the solver's modules that convert its exact sums
 _native = None
 # quadric's index tables as normal_matrix's C reads them (device/native/solver_body.h): one bytes
@@ -39,6 +39,7 @@ _TABLES = bytes([i for row in quadric._IDX4 for i in row] + [c * d for c in quad
 _EXACT = bytes([i for row in quadric._IDX4 for i in row] + [i for row in quadric._IDX3 for i in row] + quadric._IDX2
                + quadric._IDX1)
 _COUNT = moments.COUNT
+_LOW = bytes(range(1, 10))      # the sums of degree 1 and 2, by storage index
 
 
 def _cholesky(a, num):
@@ -135,6 +136,12 @@ def _scaled(sums, scale):
     return _PYTHON[14](ints(sums), scale) if out is None else out
 
 
+def _noise_gradient(self, s, a):
+    """Problem.noise_gradient on a state's sums of degree 1 and 2 as ints (9 made from its words; the
+    Python's own reads there, which on the .mpy firmware's heap a list of floats by index did not fit)."""
+    return _PYTHON[15](self, _native.exact_ints(s[_COUNT], _LOW) if s[0] is None else s, a)
+
+
 def _frame_means(s, indices, num):
     out = None
     if num is float and len(s) > _COUNT:
@@ -154,7 +161,7 @@ def install():
     predicted._sphere_gradients, predicted._variance_sum, predicted._bias_spread = (_sphere_gradients, _variance_sum,
                                                                                    _bias_spread)
     quadric.Problem.sums_at, quadric.Problem.exact, quadric.frame_means = _sums_at, _exact, _frame_means
-    quadric.shifted, quadric.scaled = _shifted, _scaled
+    quadric.shifted, quadric.scaled, quadric.Problem.noise_gradient = _shifted, _scaled, _noise_gradient
     for module in _TO_FLOAT:
         module.to_float = _native.to_float     # (an int always: a TypeError for anything else, as the Python's)
     return True
@@ -164,6 +171,7 @@ def uninstall():
     linalg.cholesky, linalg.cho_solve, linalg.solve_spd, linalg.eigh3 = _PYTHON[:4]
     quadric.normal_matrix, iteration.add_prior, prior.Prior.residuals = _PYTHON[4:7]
     predicted._sphere_gradients, predicted._variance_sum, predicted._bias_spread = _PYTHON[7:10]
-    quadric.Problem.sums_at, quadric.Problem.exact, quadric.frame_means, quadric.shifted, quadric.scaled = _PYTHON[10:]
+    (quadric.Problem.sums_at, quadric.Problem.exact, quadric.frame_means, quadric.shifted, quadric.scaled,
+     quadric.Problem.noise_gradient) = _PYTHON[10:]
     for module in _TO_FLOAT:
         module.to_float = moments.to_float

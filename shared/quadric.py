@@ -188,9 +188,8 @@ class Problem:
         num = self.num
         nf = self.nf
         am = sym(a)
-        mean = frame_means(s, range(1, 10), num)     # the sums of degree 1 and 2
-        m2 = [[mean[_IDX2M[i][j]] / nf for j in range(3)] for i in range(3)]
-        m1 = [mean[_IDX1[i]] / nf for i in range(3)]
+        m2 = [[self.value(s[_IDX2M[i][j]], -2 * FRAC) / nf for j in range(3)] for i in range(3)]
+        m1 = [self.value(s[_IDX1[i]], -FRAC) / nf for i in range(3)]
         a_s = [[am[i][0] * m2[0][j] + am[i][1] * m2[1][j] + am[i][2] * m2[2][j] for j in range(3)] for i in range(3)]
         a2 = [[am[i][0] * am[0][j] + am[i][1] * am[1][j] + am[i][2] * am[2][j] for j in range(3)] for i in range(3)]
         tr = am[0][0] + am[1][1] + am[2][2]

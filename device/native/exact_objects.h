@@ -172,19 +172,29 @@ static mp_obj_t exact(size_t n_args, const mp_obj_t *args) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(exact_obj, 4, 4, exact);
 
-// exact_ints(words): the ECOUNT ints of a sums' words (a list), or None
-static mp_obj_t exact_ints(mp_obj_t words) {
-    const uint32_t *s = e_sums(words);
-    if (!s) {
+// exact_ints(words[, indices]): the ECOUNT ints of a sums' words (a list; with indices, those alone
+// and None elsewhere), or None
+static mp_obj_t exact_ints(size_t n_args, const mp_obj_t *args) {
+    const uint32_t *s = e_sums(args[0]);
+    mp_buffer_info_t idx;
+    idx.len = 0;        // (field by field: an initialiser is a memset, which a native module does not link)
+    if (!s || (n_args > 1 && !mp_get_buffer(args[1], &idx, MP_BUFFER_READ))) {
         return mp_const_none;
     }
     mp_obj_t items[ECOUNT];
     for (size_t i = 0; i < ECOUNT; i++) {
+        items[i] = n_args > 1 ? mp_const_none : e_obj(s + EW * i);
+    }
+    for (size_t k = 0; k < idx.len; k++) {
+        size_t i = ((const uint8_t *)idx.buf)[k];
+        if (i >= ECOUNT) {
+            return mp_const_none;
+        }
         items[i] = e_obj(s + EW * i);
     }
     return mp_obj_new_list(ECOUNT, items);
 }
-static MP_DEFINE_CONST_FUN_OBJ_1(exact_ints_obj, exact_ints);
+static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(exact_ints_obj, 1, 2, exact_ints);
 
 // frame_floats(words, indices, degrees, frac): quadric.frame_means's list from the sums' words, or None
 static mp_obj_t frame_floats(size_t n_args, const mp_obj_t *args) {

@@ -21,7 +21,7 @@
 //     linalgc.exact_words(sums)             # the 35 power sums as words (a bytearray), or None
 //     linalgc.recentre(words, c, chains)    # moments.recentred: the 35 ints, then their words; or None
 //     linalgc.exact(words, a_int, tables, f3)   # quadric's Problem.exact: (g_A, T, RSS), or None (exact_body.h)
-//     linalgc.exact_ints(words)             # the 35 ints of the words
+//     linalgc.exact_ints(words[, indices])  # the 35 ints of the words (those at indices)
 //     linalgc.frame_floats(words, indices, degrees, frac)   # quadric.frame_means's floats, or None
 //     linalgc.scaled_words(words, bits, degrees)            # moments.scaled by 2**bits, as recentre's
 //

@@ -1,7 +1,7 @@
 # The exact integer kernels' cases for native_linalg.py (beside it): shared/quadric.py's Problem.sums_at
 # (moments.recentred) and Problem.exact, which linalgc.mpy runs in 512-bit words (device/native/exact_body.h)
 # where it declines nothing, and hands back to Python (None) where a bound reaches 2**500.
-# And quadric.frame_means, shifted and scaled (the problem's frame), the sums as floats in the frame (from the words there). Yields (kernel name, args):
+# And quadric.frame_means, shifted and scaled (the problem's frame) and Problem.noise_gradient, the sums as floats in the frame (from the words there). Yields (kernel name, args):
 # the Python's and the native results must be the same ints and floats (native_linalg.py compares a
 # sums_at's ints, made from its words, and the next sums_at, exact and frame_means read the words).
 
@@ -55,6 +55,7 @@ def exact_cases(rng, short, sums_at, shifted):
             for abits in (40, 41, 62, 63, 64, 70) if not short else (41, 70):
                 a = [one + _int(rng, abits - 2) for _ in range(3)] + [_int(rng, abits) for _ in range(3)]
                 yield "exact", (pb, s, a)
+            yield "noise_gradient", (pb, s, [1.0, 1.1, 0.9, 0.01, -0.02, 0.03])
             yield "frame_means", (s, _MEANS, float)
             yield "frame_means", (s, range(1, 10), float)
     # sums no samples make, from small to past 2**500: declined where a result could reach it

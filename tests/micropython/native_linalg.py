@@ -232,7 +232,7 @@ _N = None
 
 
 KERNELS = ("cholesky", "cho_solve", "solve_spd", "eigh3", "normal_matrix", "add_prior", "residuals", "_sphere_gradients",
-           "_variance_sum", "_bias_spread", "sums_at", "exact", "frame_means", "shifted", "scaled", "to_float")
+           "_variance_sum", "_bias_spread", "sums_at", "exact", "frame_means", "shifted", "scaled", "noise_gradient", "to_float")
 
 
 def _python(name, args):
@@ -240,7 +240,7 @@ def _python(name, args):
     if name == "sums_at":
         from exact_cases import Sums
         args = (Sums(_N.ints(args[0].scaled)), args[1], None if args[2] is None else (_N.ints(args[2][0]), args[2][1]))
-    elif name == "exact":
+    elif name in ("exact", "noise_gradient"):
         args = (args[0], _N.ints(args[1]), args[2])
     elif name in ("frame_means", "scaled"):
         args = (_N.ints(args[0]),) + args[1:]
@@ -251,7 +251,7 @@ def _python(name, args):
 
 
 def _call(f, name, args):
-    if name in ("cho_solve", "residuals", "to_float", "sums_at", "exact", "frame_means", "shifted", "scaled"):
+    if name in ("cho_solve", "residuals", "to_float", "sums_at", "exact", "frame_means", "shifted", "scaled", "noise_gradient"):
         return f(*args)
     if name == "add_prior":
         h, g = args[0], args[1]
@@ -266,7 +266,7 @@ def _outcome(name, args, native):
     from shared import iteration, predicted, prior, quadric
     where = {"add_prior": iteration, "normal_matrix": quadric, "residuals": prior.Prior, "to_float": quadric,
              "sums_at": quadric.Problem, "exact": quadric.Problem, "frame_means": quadric, "shifted": quadric,
-             "scaled": quadric}.get(name, _L)
+             "scaled": quadric, "noise_gradient": quadric.Problem}.get(name, _L)
     where = predicted if name.startswith("_") else where
     try:
         r = _call(getattr(where, name), name, args) if native else _python(name, args)
