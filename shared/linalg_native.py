@@ -103,7 +103,7 @@ def _sums_at(self, f_int, near=None):
         c = [f_int[0] - f_near[0], f_int[1] - f_near[1], f_int[2] - f_near[2]]
     src = sums[_COUNT] if len(sums) > _COUNT else _native.exact_words(sums)
     out = None if src is None else _native.recentre(src, c, moments._CHAINS)
-    return moments.recentred(ints(sums), c) if out is None else out     # (as the Python's sums_at)
+    return moments.recentred(ints(sums)[:_COUNT], c) if out is None else out     # (as the Python's sums_at)
 
 
 def ints(s):

@@ -52,6 +52,7 @@ def _check(text, kind):
         # and the exact integer kernels among them (a trial state's sums and its g_A, T, RSS)
         assert got["answered"] > got["compared"]
         assert got["answered_exact"] > 40, got
+        assert got["declined_malformed"] is True, got     # tables it is never handed: None, no crash
     return got
 
 

@@ -114,9 +114,12 @@ static mp_obj_t recentre(mp_obj_t src, mp_obj_t c, mp_obj_t chains) {
         }
         ch[a] = buf.buf;
         ends[a] = buf.len;
-        for (size_t p = 0; p < buf.len; p += ch[a][p] + 1) {      // well formed: every index a sum's
+        for (size_t p = 0; p < buf.len; p += ch[a][p] + 1) {      // well formed: every chain one long
+            if (!ch[a][p]) {                                        // at least, every index a sum's
+                return mp_const_none;
+            }
             for (size_t j = 1; j <= ch[a][p]; j++) {
-                if (!ch[a][p] || p + j >= buf.len || ch[a][p + j] >= ECOUNT) {
+                if (p + j >= buf.len || ch[a][p + j] >= ECOUNT) {
                     return mp_const_none;
                 }
             }
@@ -201,7 +204,8 @@ static mp_obj_t frame_floats(size_t n_args, const mp_obj_t *args) {
     mp_buffer_info_t idx, deg;
     const uint32_t *s = e_sums(args[0]);
     if (!s || !mp_get_buffer(args[1], &idx, MP_BUFFER_READ) || !mp_get_buffer(args[2], &deg, MP_BUFFER_READ)
-        || deg.len != ECOUNT || !mp_obj_is_small_int(args[3])) {
+        || deg.len != ECOUNT || !mp_obj_is_small_int(args[3]) || MP_OBJ_SMALL_INT_VALUE(args[3]) < 0
+        || MP_OBJ_SMALL_INT_VALUE(args[3]) > 1000) {
         return mp_const_none;
     }
     for (size_t k = 0; k < idx.len; k++) {

@@ -68,3 +68,19 @@ def exact_cases(rng, short, sums_at, shifted):
             yield "exact", (fake, s, [_int(rng, 41) for _ in range(6)])
             yield "frame_means", (s, range(35), float)     # small ones under a float's range, big ones past it
     yield "exact", (pb, sums_at(pb, [0, 0, 0], None), [one, one, one, 0, 0, 0.5])     # a float: Python's
+
+
+def malformed_declined(native, words):
+    """Whether linalgc declines (None) what moments and quadric never hand it: chains of length 0 or
+    naming an index past the sums, a frame exponent past its range, index tables of another length."""
+    from shared import moments
+    ok = moments._CHAINS
+    return all(r is None for r in (
+        native.recentre(words, [1, 2, 3], [b"\x00", ok[1], ok[2]]),
+        native.recentre(words, [1, 2, 3], [ok[0], bytes([2, 0, 35]), ok[2]]),
+        native.recentre(words, [1, 2, 3], [ok[0], ok[1], bytes([5, 0, 1])]),
+        native.frame_floats(words, b"\x04", moments.DEGREE, 1 << 20),
+        native.frame_floats(words, b"\x23", moments.DEGREE, 40),
+        native.exact(words, [1, 2, 3, 4, 5, 6], b"\x00" * 62, 120),
+        native.exact_ints(words, b"\x23"),
+    ))

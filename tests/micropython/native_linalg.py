@@ -361,11 +361,15 @@ def main(root, natmod=None, short=None):
                 first = name
     solved = solves(short)
     linalg_native._native = native
+    declined = None
+    if native is not None:
+        from exact_cases import malformed_declined
+        declined = malformed_declined(native, native.exact_words([7] * 35))
     from shared import moments, quadric
     # to_float is installed as the native function itself (not counted in `answered`): which one the solver calls
     to_float = "python" if quadric.to_float is moments.to_float else "native"
     print(json.dumps({"path": "native" if installed else "python", "kind": None if native is None else native.kind(), "compared": compared,
-                      "differed": differed, "first": first, "answered": answered[0], "answered_exact": answered[1], "solves_differed": solved,
+                      "differed": differed, "first": first, "answered": answered[0], "answered_exact": answered[1], "declined_malformed": declined, "solves_differed": solved,
                       "to_float": to_float}))
 
 
