@@ -155,7 +155,6 @@ static MP_DEFINE_CONST_FUN_OBJ_0(kind_obj, kind);
 #define variance_sum_f(...) mp_const_none
 #define bias_spread_f(...) mp_const_none
 #define frame_floats_f(...) mp_const_none
-#define word_float_f(...) mp_const_none
 #endif
 #if !HAS_DOUBLE
 #define cholesky_d(...) mp_const_none
@@ -169,7 +168,6 @@ static MP_DEFINE_CONST_FUN_OBJ_0(kind_obj, kind);
 #define variance_sum_d(...) mp_const_none
 #define bias_spread_d(...) mp_const_none
 #define frame_floats_d(...) mp_const_none
-#define word_float_d(...) mp_const_none
 #endif
 #define IN_USE(name, ...) (kind_in_use == 'd' ? name##_d(__VA_ARGS__) : kind_in_use == 'f' ? name##_f(__VA_ARGS__) : mp_const_none)
 
@@ -280,11 +278,7 @@ static mp_int_t int_bits(mp_obj_t x) {
     return n;
 }
 
-#include "exact_objects.h"
-
-// to_float(x, exponent=0): float(x * 2**exponent) as moments.to_float makes it; an int under 2**500
-// through its words (exact_objects.h's read, solver_body.h's word_float: one int.to_bytes, no shift,
-// float() or ldexp call), where the module's float is the interpreter's
+// to_float(x, exponent=0): float(x * 2**exponent) as moments.to_float makes it
 static mp_obj_t to_float(size_t n_args, const mp_obj_t *args) {
     mp_obj_t x = args[0], e = n_args > 1 ? args[1] : MP_OBJ_NEW_SMALL_INT(0);
     if (x == mp_const_false || x == mp_const_true) {
@@ -292,10 +286,6 @@ static mp_obj_t to_float(size_t n_args, const mp_obj_t *args) {
     }
     if ((!mp_obj_is_small_int(x) && mp_obj_get_type(x) != int_type) || !mp_obj_is_small_int(e)) {
         mp_raise_TypeError(MP_ERROR_TEXT("to_float takes an int"));       // as the Python's shifts would
-    }
-    uint32_t words[EW];
-    if (kind_in_use && MP_OBJ_SMALL_INT_VALUE(e) > -100000 && MP_OBJ_SMALL_INT_VALUE(e) < 100000 && e_read(x, words)) {
-        return IN_USE(word_float, words, MP_OBJ_SMALL_INT_VALUE(e));
     }
     mp_int_t exponent = MP_OBJ_SMALL_INT_VALUE(e), extra = int_bits(x) - 53;
     if (extra > 0) {
@@ -306,6 +296,8 @@ static mp_obj_t to_float(size_t n_args, const mp_obj_t *args) {
     return mp_call_function_n_kw(ldexp_fn, 2, 0, call);
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(to_float_obj, 1, 2, to_float);
+
+#include "exact_objects.h"
 
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
     MP_DYNRUNTIME_INIT_ENTRY
