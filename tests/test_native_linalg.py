@@ -10,7 +10,7 @@ Prior.residuals (the physical prior and a previous calibration's), shared/predic
 _variance_sum and _bias_spread (random, zeros of both signs, overflowing), shared/moments.py's to_float (ints
 of every size and sign, past the module's table of powers, bools) and shared/quadric.py's Problem.sums_at and
 Problem.exact in 512-bit words (tests/micropython/exact_cases.py: centres and quadrics of 0 to 70 bits, sums up
-to past 2**500 where the module must decline), and what the module must hand back to
+to past 2**500 where the module must decline, the sums of random points of 0 to 63 bits), and what the module must hand back to
 Python (ints, nan, inf, tuples, ragged rows, 13 rows, a None where a sum is read, a quick fit's directions); then
 whole solves of a distorted sphere: every result the same bits and every exception the same. Where the module
 loads: the 64-bit unix builds (x64; the pip micropython's doubles, kind "d", the float32 build's binary32, "f")

@@ -68,6 +68,20 @@ def exact_cases(rng, short, sums_at, shifted):
             yield "exact", (fake, s, [_int(rng, 41) for _ in range(6)])
             yield "frame_means", (s, range(35), float)     # small ones under a float's range, big ones past it
     yield "exact", (pb, sums_at(pb, [0, 0, 0], None), [one, one, one, 0, 0, 0.5])     # a float: Python's
+    # the sums of a few random points of 0 to 63 bits about random centres: every bound's word count
+    from shared.moments import ORDER
+    for _ in range(6 if short else 40):
+        bits = rng.bits(6)
+        s = [0] * 35
+        for _ in range(1 + rng.bits(3)):
+            x, y, z = _int(rng, bits), _int(rng, bits), _int(rng, bits)
+            for n, (i, j, k) in enumerate(ORDER):
+                s[n] += x ** i * y ** j * z ** k
+        points = Sums(s)
+        yield "sums_at", (points, [_int(rng, rng.bits(6)) for _ in range(3)], None)
+        s = sums_at(points, [_int(rng, rng.bits(6)) for _ in range(3)], None)
+        yield "exact", (points, s, [_int(rng, rng.bits(6)) for _ in range(6)])
+        yield "frame_means", (s, range(35), float)
 
 
 def malformed_declined(native, words):
