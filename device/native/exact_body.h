@@ -20,14 +20,19 @@
 static inline bool e_negative(const uint32_t *x) { return x[EW - 1] >> 31; }
 
 // out = |x| (out may be x)
-static void e_abs(uint32_t *out, const uint32_t *x) {
-    uint32_t flip = e_negative(x) ? 0xffffffff : 0;
+// out = -x where negate (complemented, plus one), else x (out may be x)
+static void e_negated(uint32_t *out, const uint32_t *x, bool negate) {
+    uint32_t flip = negate ? 0xffffffff : 0;
     uint64_t c = flip & 1;
     for (size_t i = 0; i < EW; i++) {
         c += x[i] ^ flip;
         out[i] = (uint32_t)c;
         c >>= 32;
     }
+}
+
+static void e_abs(uint32_t *out, const uint32_t *x) {
+    e_negated(out, x, e_negative(x));
 }
 
 // the number of bits of |x| (moments.bit_length)
@@ -114,8 +119,8 @@ static inline void e_shift_right(uint32_t *out, const uint32_t *x, size_t shift)
     }
 }
 
-// a magnitude under 2**64 in m[0..1] and its sign, from x; false if |x| >= 2**64
-static bool e_small(const uint32_t *x, uint32_t *m, bool *negative) {
+// |x| in m[0..1] where it is under 2**64; false if not
+static bool e_small(const uint32_t *x, uint32_t *m) {
     uint32_t a[EW];
     e_abs(a, x);
     for (size_t i = 2; i < EW; i++) {
@@ -125,7 +130,6 @@ static bool e_small(const uint32_t *x, uint32_t *m, bool *negative) {
     }
     m[0] = a[0];
     m[1] = a[1];
-    *negative = e_negative(x);
     return true;
 }
 
@@ -142,9 +146,8 @@ static bool e_recentre(uint32_t *s, const uint32_t *c, const uint8_t *const *cha
         bound[i] = e_bits(s + EW * i);
     }
     uint32_t m[3][2];
-    bool negative[3];
     for (size_t axis = 0; axis < 3; axis++) {
-        if (!e_small(c + EW * axis, m[axis], &negative[axis])) {
+        if (!e_small(c + EW * axis, m[axis])) {
             return false;
         }
         mp_int_t cb = e_bits(c + EW * axis);
@@ -176,7 +179,7 @@ static bool e_recentre(uint32_t *s, const uint32_t *c, const uint8_t *const *cha
             size_t top = p + ch[p];                              // the chain is ch[p + 1 .. top]
             for (size_t k = p + 2; k <= top; k++) {
                 for (size_t e = top - 1; e + 2 > k; e--) {       // s[upper] -= c s[lower], upper from the top
-                    e_add_product(s + EW * ch[e + 1], s + EW * ch[e], m[axis], !negative[axis], n);
+                    e_add_product(s + EW * ch[e + 1], s + EW * ch[e], m[axis], !e_negative(c + EW * axis), n);
                 }
             }
         }
@@ -193,14 +196,13 @@ static bool e_recentre(uint32_t *s, const uint32_t *c, const uint8_t *const *cha
 static bool e_exact(uint32_t *out, const uint32_t *s, const uint32_t *a, const uint8_t *idx, size_t f3) {
     const uint8_t *idx4 = idx, *idx3 = idx + 36, *idx2 = idx + 54, *idx1 = idx + 60;
     uint32_t ac[6][2], am[6][2], w[EW];
-    bool negative;
     mp_int_t bs[ECOUNT], ba = 0, bound[10];
     for (size_t k = 0; k < 6; k++) {
         for (size_t i = 0; i < EW; i++) {
             w[i] = 0;
         }
         e_add_shifted(w, a + EW * k, k < 3 ? 0 : 1, false, EW);   // ac_k = W_C[k] a_k
-        if (!e_small(w, ac[k], &negative) || !e_small(a + EW * k, am[k], &negative)) {
+        if (!e_small(w, ac[k]) || !e_small(a + EW * k, am[k])) {
             return false;
         }
         ba = e_max(ba, e_bits(w));

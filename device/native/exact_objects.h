@@ -25,13 +25,10 @@ static bool e_read(mp_obj_t o, uint32_t *x) {
     mp_buffer_info_t buf;
     mp_get_buffer_raise(mp_call_function_n_kw(e_to_bytes, 3, 0, call), &buf, MP_BUFFER_READ);
     const uint8_t *b = buf.buf;
-    uint32_t flip = negative ? 0xffffffff : 0;
-    uint64_t c = flip & 1;
-    for (size_t i = 0; i < EW; i++) {        // (negated: complemented, plus one)
-        c += (b[4 * i] | (uint32_t)b[4 * i + 1] << 8 | (uint32_t)b[4 * i + 2] << 16 | (uint32_t)b[4 * i + 3] << 24) ^ flip;
-        x[i] = (uint32_t)c;
-        c >>= 32;
+    for (size_t i = 0; i < EW; i++) {
+        x[i] = b[4 * i] | (uint32_t)b[4 * i + 1] << 8 | (uint32_t)b[4 * i + 2] << 16 | (uint32_t)b[4 * i + 3] << 24;
     }
+    e_negated(x, x, negative);
     return true;
 }
 
