@@ -52,11 +52,14 @@ PARTS = [("irq23", "DRDY handler (hard IRQ 7, PIO0's: its state machine counts t
          ("part3", "add()"),
          ("part11", "residual batches: a batch's sums at its end (in the gates)"),
          ("part4", "solve (provisional every 5 s; the final one in the finish)"),
+         ("part10", "calibration progress (the session's pass: progress events, LED, auto-finish; less its solves)"),
          ("part8", "finish: checks, temperature coefficients, save (less its solve)"),
          ("part5", "survey output (|h_c|, blocks, data events)"),
          ("part6", "protocol (the serial line)"),
+         ("part9", "button, LED, ADC health (polled every pass)"),
+         ("part7", "the pass's sleep (sleep_ms: its wake-ups at each interrupt)"),
          ("irq21", "USB interrupt"),
-         ("part0", "the rest of the main loop (ring, health, button, LED, progress, wake-ups)")]
+         ("part0", "the rest of the main loop (the pass, progress events, the watchdog)")]
 
 
 class Runner:

@@ -13,9 +13,13 @@
 # without. The DRDY handler needs none: it is a hard IRQ, counted by the runner as the exception.
 import sys
 
+import acquisition
 import app
+import button
 import calibration_flow
 import hal_micropython
+import health
+import led
 import protocol
 import screen
 import survey
@@ -25,13 +29,31 @@ from micropython import const
 _PORT = const(0x40068000)
 _ENTRY = const(0x100)      # on the way in: the runner counts a call (reads give the number alone)
 # the parts' numbers, as desktop/bench/pico.py names them (0: the rest of the main loop)
-REST, SCREEN, GATES, ADD, SOLVE, OUTPUT, PROTOCOL, FINISH, BATCHES = 0, 1, 2, 3, 4, 5, 6, 8, 11
+REST, SCREEN, GATES, ADD, SOLVE, OUTPUT, PROTOCOL, SLEEP, FINISH, HOUSE, TICK, BATCHES = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11
 
 
 def _w1(f, part, parent):
     def w(a):
         mem32[_PORT] = part | _ENTRY
         r = f(a)
+        mem32[_PORT] = parent
+        return r
+    return w
+
+
+def _w2(f, part, parent):
+    def w(a, b):
+        mem32[_PORT] = part | _ENTRY
+        r = f(a, b)
+        mem32[_PORT] = parent
+        return r
+    return w
+
+
+def _w3(f, part, parent):
+    def w(a, b, c):
+        mem32[_PORT] = part | _ENTRY
+        r = f(a, b, c)
         mem32[_PORT] = parent
         return r
     return w
@@ -74,6 +96,15 @@ def _screen(init):
     return w
 
 
+def _acquisition(init):
+    """Acquisition.__init__ that wraps the ring's reader in the instance, where a native one
+    (drdy.Drain) lives: the samples it delivers are the survey output's, less the screen's."""
+    def w(self, *a, **k):
+        init(self, *a, **k)
+        self.poll = _w3(self.poll, OUTPUT, REST)   # bound: (on_sample, limit, on_gap)
+    return w
+
+
 def _wrap(cls, name, wrapper, part, parent=None):
     setattr(cls, name, wrapper(getattr(cls, name), part, parent))
 
@@ -107,8 +138,14 @@ def _start(start):
 
 
 _wrap(survey.Output, "sample", _w5, OUTPUT, REST)          # per sample: |h_c|, the block, the data event
+acquisition.Acquisition.__init__ = _acquisition(acquisition.Acquisition.__init__)   # ... from the ring's reader
+_wrap(app.App, "wait", _w1, SLEEP, REST)                  # the pass's sleep: its wake-ups at each interrupt
+_wrap(button.Button, "poll", _w1, HOUSE, REST)            # polled every pass: the button,
+_wrap(led.Led, "update", _w1, HOUSE, REST)                # ... the LED,
+_wrap(health.AdcSupervisor, "check", _w2, HOUSE, REST)    # ... the ADC's health
 screen.Screen.__init__ = _screen(screen.Screen.__init__)    # ... first the spike screen,
 calibration_flow.CalibrationFlow.start = _start(calibration_flow.CalibrationFlow.start)   # ... a session's parts
 _wrap(protocol.Protocol, "poll", _w1, PROTOCOL, REST)      # the serial line: read, parse, answer
+_wrap(calibration_flow.CalibrationFlow, "tick", _w1, TICK, REST)   # a session's pass: progress, LED, solves
 _wrap(calibration_flow.CalibrationFlow, "finish", _nested, FINISH)   # the checks, tempco, the save
 app.start(hal_micropython)
