@@ -59,7 +59,7 @@ PARTS = [("irq23", "DRDY handler (hard IRQ 7, PIO0's: its state machine counts t
          ("part9", "button, LED, ADC health (polled every pass)"),
          ("part7", "the pass's sleep (sleep_ms: its wake-ups at each interrupt)"),
          ("irq21", "USB interrupt"),
-         ("part0", "the rest of the main loop (the pass, progress events, the watchdog)")]
+         ("part0", "the rest of the main loop (the pass and the calls around its parts, the watchdog)")]
 
 
 class Runner:
