@@ -19,10 +19,7 @@ the serial line, drive the LED, then idle for _HOUSE_MS. The DRDY handler does
 the boxcar itself and the ring holds 1.28 s of samples, so a pass runs every
 _HOUSE_MS whatever the rates: the button, serial and LED work of a pass (~35k
 instructions on a Cortex-M, docs/firmware.md) is paid 50 times a second, not
-once per sample. Where an interrupt times the button's closings (MicroPython:
-hal button_edge) and no bytes came, a pass sleeps until the button's or the LED's next
-due time, at most _IDLE_MS: about 25 passes a second, the firmware ~0.6 % of the CPU
-less busy on the emulated Pico (docs/benchmarks.md); a press counts from its closing.
+once per sample.
 
 Frames: where MicroPython has no Python stack (the rp2 port), a call whose state (locals and
 value stack, a word each; two more per active try) passes 11 words takes its frame from the heap
@@ -62,7 +59,6 @@ from survey import Output
 FIRMWARE_VERSION = "0.1.0"
 _DRAIN = 16      # samples per loop pass at least (more when more arrive per pass)
 _HOUSE_MS = 20   # a pass every 20 ms: button (debounce is 30 ms), serial, LED, samples
-_IDLE_MS = 40    # or up to 40 ms where an interrupt times the button and nothing is due sooner (wait)
 # board.busy keys: the main loop's work, charged as simulated time by the simulated board
 _SAMPLE_CAL = "sample_cal"
 _SAMPLE = "sample"
@@ -109,9 +105,6 @@ class App:
         self.supervisor = sup = AdcSupervisor(board, proto, led, acq)
         self.flow = flow = CalibrationFlow(board, proto, led, self.output, self.guard, sup, FIRMWARE_VERSION)
         flow.linalg_path = float_kernels()
-        # the long idle pass (wait) where the heap has that room too: with it the .mpy firmware's
-        # finishes were refused no_memory (4 of 6, python -m desktop.bench.pico_sessions --runs 3)
-        self._idle_ms = _IDLE_MS if flow.linalg_path == "native" else _HOUSE_MS
         self.guard.flow = flow            # a loop error ends a session; safe mode drops the calibration
         sup.flow = flow                   # a fault ends a session
         sup.on_cleared = self._setup_pipeline
@@ -210,10 +203,7 @@ class App:
     def wait(self):
         """Idle for _HOUSE_MS: asleep where the DRDY handler is an interrupt, else counted in conversions.
 
-        On MicroPython (sleeps_with_irq) the pass sleeps in sleep_ms, up to _IDLE_MS where the
-        button's closings are timed by its interrupt (hal button_edge) and no bytes came: until
-        the button's next due poll (Button.due_ms) or the LED's next change (Led.due_ms), so a
-        press counts from its closing and the LED changes on time. machine.idle() also returns
+        On MicroPython (sleeps_with_irq) the pass sleeps in sleep_ms: machine.idle() also returns
         at the rp2 port's 1 ms wake-up alarm and at USB interrupts, so a loop of idle() calls
         woke the Python code some 3,300 times a second and ended passes early (155 passes a
         second, not 50, on the emulated Pico).
@@ -227,7 +217,7 @@ class App:
         if b.sleeps_with_irq:
             # the DRDY interrupt fills the ring while the core sleeps: one call, and the
             # wake-ups inside it (every interrupt, 1000 DRDY a second) stay in C
-            b.sleep_ms(self._pass_ms(b))
+            b.sleep_ms(_HOUSE_MS)
             return
         if self.supervisor.fault:   # no conversions to count: by the clock
             t0 = b.ticks_ms()
@@ -241,12 +231,6 @@ class App:
         while n > 0:
             idle()
             n -= 1
-
-    def _pass_ms(self, b):
-        # (its own frame: in wait's, the calls' stack passed the 11 words of a frame on the C stack)
-        if self.proto.heard or not b.button_edges:
-            return _HOUSE_MS
-        return self.led.due_ms(self.button.due_ms(self._idle_ms))
 
 
 def start(hal):
