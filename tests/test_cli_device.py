@@ -122,13 +122,19 @@ def test_calibrate_auto_then_pull_cal_agrees_with_a_numpy_fit(tmp_path):
     assert float(verified[0].split("peak-to-peak ")[1].split(" nT")[0]) < 4 * bound, verified
 
 
+# a finish typed at once is refused for what the few seconds gave: too few samples, or (on a loaded
+# host, where the CLI reads the key later) enough of them over too narrow an arc; either way one line
+EARLY = ("calibration failed (too_few_samples)", "calibration failed (degenerate_coverage)")
+
+
 @pytest.mark.parametrize("flags, keys, words", [
-    ((), "c\n", ("calibration cancelled", "previous calibration stays")),
-    ((), "f\n", ("calibration failed (too_few_samples)",)),
-    (("--full",), "f\n", ("calibration failed (too_few_samples)",)),     # start-cal full
+    ((), "c\n", ("calibration cancelled",)),
+    ((), "f\n", EARLY),
+    (("--full",), "f\n", EARLY),     # start-cal full
 ])
 def test_calibrate_finished_or_cancelled_from_the_keyboard(handheld, flags, keys, words):
-    fails_in_one_line(fluxcal("calibrate", *flags, "--port", handheld.port, keys=keys), *words)
+    line = fails_in_one_line(fluxcal("calibrate", *flags, "--port", handheld.port, keys=keys), "previous calibration stays")
+    assert any(w in line for w in words), line
     assert json.loads(ok(fluxcal("status", "--json", "--port", handheld.port)))["status"]["state"] == "survey"
 
 
