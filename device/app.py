@@ -41,6 +41,12 @@ are screened out (screen.py); boots that never become healthy bring the next
 one up in safe mode (bootguard.py).
 """
 
+import session_modules
+
+# ruff: noqa: E402 (the firmware's imports come after this)
+# first, into an empty heap: every name the firmware interns, side by side (session_modules.py)
+session_modules.intern_names()
+
 import gc
 
 import bootguard

@@ -19,11 +19,13 @@ one it replaces when their die temperatures are tempco_min_span_c apart, else th
 
 import gc
 import sys
+from array import array
 
 import led as ledp
 import store
 from button import LONG, SHORT
 from protocol import ProtocolError, json_number
+from session_modules import drop_modules, sums_path
 from shared import codes
 from shared.calibration import Calibration
 from shared.codes import AUTO, FULL, QUICK
@@ -31,19 +33,7 @@ from shared.codes import AUTO, FULL, QUICK
 KEEP_CAL = "keep-cal"
 SOLVE = "solve"   # board.busy key: a solve, charged as simulated time by the simulated board
 KINDS = (AUTO, FULL, QUICK)   # start-cal's (the session's states and kinds: shared/codes.py)
-HIST_BYTES = 5 * 4 * 256      # gates.py's hist (5 ints x HIST), a session's largest block (start)
-# A session's modules (~42 KB of a 32-bit heap as .mpy) go when it ends (docs/firmware.md); not on CPython (shared sys.modules)
-_UNLOAD = sys.implementation.name != "cpython"
-
-
-def sums_path():
-    """Which sums the fit runs, "native" or "python" (`status`); the session's native modules, resident from here."""
-    for name in ("gatesc", "fitsums"):      # fitsums last: shared/fit.py's test, its import says the path
-        try:
-            path = __import__(name) and "native"
-        except (ImportError, ValueError):   # ValueError: a .mpy of another arch or version
-            path = "python"
-    return path
+HIST_INTS = 5 * 256           # gates.py's hist (5 ints x HIST), a session's largest block (start)
 
 
 class CalibrationFlow:
@@ -146,18 +136,17 @@ class CalibrationFlow:
         self.held = None   # a calibration refused as worse is kept until the next session
         if self._resident is None:
             self._resident = set(sys.modules)
-        gc.collect()   # the session's largest block, the gates' hist, kept free while its modules load
-        room = bytearray(HIST_BYTES)
+        gc.collect()   # the session's largest block, the gates' hist, taken before its modules load into the holes
+        hist = array("i", range(HIST_INTS))
         from session import Session
         from shared.fit import SUMS_PATH
-        room = None
         gc.collect()
         self._sums_path = SUMS_PATH
         if self.linalg_path == "native":   # the float kernels app.py loaded, for this session's shared.linalg
             from shared import linalg_native
             linalg_native.install()
         self.session = Session(c, self.scale, c["window"], period_ms, prior, self.board.ticks_ms(), kind, hold,
-                               self.board.polls_drdy)
+                               self.board.polls_drdy, hist)
         self.output.session = self.session
         self.output.respond()   # its samples de-lagged with the session's response
         # its own conversions only: the screen's and de-lag's held samples let go (tests/micropython/two_sessions.py)
@@ -303,20 +292,11 @@ class CalibrationFlow:
         return s
 
     def _unload(self):
-        """Drop the modules the session brought (start) from sys.modules, and from their package:
-        their bytecode is freed once the session's objects go; the next session imports them again.
-        A module imported since by another path (tempco at the finish, acceptance for set-cal) goes too."""
+        """Drop the modules the session brought (start), and any imported since by another path
+        (tempco at the finish, acceptance for set-cal): session_modules.py."""
         resident, self._resident = self._resident, None
-        if not _UNLOAD or resident is None:
-            return
-        for name in [m for m in sys.modules if m not in resident]:
-            del sys.modules[name]
-            dot = name.rfind(".")
-            if dot > 0 and name[:dot] in sys.modules:
-                try:
-                    delattr(sys.modules[name[:dot]], name[dot + 1:])
-                except AttributeError:
-                    pass
+        if resident is not None:
+            drop_modules(resident)
 
     def steady_led(self):
         if self.supervisor.fault:

@@ -138,8 +138,16 @@ def zeros(n):
     return a
 
 
+def _zeroed(a):
+    if len(a) != 5 * HIST:
+        raise ValueError("hist must hold 5 * HIST ints")
+    for i in range(len(a)):
+        a[i] = 0
+    return a
+
+
 class Gates:
-    def __init__(self, cfg, fit, cov, window, period_ms, centre, polled=False, native=True):
+    def __init__(self, cfg, fit, cov, window, period_ms, centre, polled=False, native=True, hist=None):
         self.fit = fit
         self.cov = cov
         # shift that brings a full-scale sum (window * 2**23 codes) below 2**14
@@ -160,7 +168,9 @@ class Gates:
         self._cuts = array("i", cov._cuts)      # the coverage cells, read inline in sample()
         st[_EDGE] = cov.edge
         self._counts = cov.counts
-        self.hist = zeros(5 * HIST)  # x, y, z, sample index, cell
+        # x, y, z, sample index, cell; hist: an array("i") of that length to use (calibration_flow.py's,
+        # taken before the session's modules split the heap)
+        self.hist = zeros(5 * HIST) if hist is None else _zeroed(hist)
         # the tau estimate (session.py attach): the Delag whose .ex .ey .ez are the current
         # sample's tau steps, the accumulators they go into, and the accepted ones' steps
         # beside hist (x, y, z each)

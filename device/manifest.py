@@ -16,8 +16,8 @@ if options.runtime == "micropython":
 
 # Every runtime: the application, the ADS1292 driver and the HAL contract.
 for name in ("acceptance", "acquisition", "ads1292", "app", "bootguard", "button", "calibration_flow", "commands",
-             "config", "flashlog", "gates", "hal", "health", "lagfit", "led", "protocol", "residual_stats", "residuals", "screen",
-             "session", "store", "survey", "surveylog"):
+             "config", "firmware_names", "flashlog", "gates", "hal", "health", "lagfit", "led", "protocol",
+             "residual_stats", "residuals", "screen", "session", "session_modules", "store", "survey", "surveylog"):
     module(name + ".py", opt=3)
 
 # The runtime's HAL.

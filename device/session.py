@@ -40,7 +40,7 @@ CLIP_FRACTION = 200   # more than 1 in 200 samples clipped refuses the calibrati
 
 
 class Session:
-    def __init__(self, cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto", hold=False, polled=False):
+    def __init__(self, cfg, scale, window, period_ms, prior=None, now_ms=0, kind="auto", hold=False, polled=False, hist=None):
         self.cfg = cfg
         # hold: finished by the operator (finish-cal, the button) or at max_cal_s, never at `ready`
         self.hold = hold
@@ -54,7 +54,7 @@ class Session:
         self.cov = Coverage(cfg["cells"], cfg["cell_cap"])
         self.c = [int(v) for v in self.prior.offset] if self.prior is not None else [0, 0, 0]
         # polled: the board polls DRDY (hal.py polls_drdy; shared/delag.py adc_delagged)
-        self.gates = g = Gates(cfg, self.fit, self.cov, window, period_ms, self.c, polled)
+        self.gates = g = Gates(cfg, self.fit, self.cov, window, period_ms, self.c, polled, hist=hist)
         # the response the samples are de-lagged with (survey.py applies it), per axis in whole
         # us, and the record the calibration carries it in; None: not de-lagged (gates.py)
         tau = configured_tau_s(cfg, polled)

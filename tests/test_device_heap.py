@@ -9,8 +9,10 @@ boot, which the flow then leaves in place. The calibrations must be the same to 
 case: the second session runs on modules imported afresh, the first as the only one.
 """
 
+import ast
 import json
 import os
+import re
 import shutil
 import subprocess
 
@@ -22,6 +24,7 @@ from tests.interpreters import INTERPRETERS, need
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(REPO, "tests", "micropython", "two_sessions.py")
+INTERNED = os.path.join(REPO, "tests", "micropython", "interned.py")
 
 
 @pytest.fixture(scope="module")
@@ -33,6 +36,7 @@ def bench_folder(tmp_path_factory):
     build_image(os.path.join(tmp, "lib-py"), runtime="sim", compiled=False)
     shutil.copy(os.path.join(SCRIPTS, "loopboard.py"), tmp)
     shutil.copy(SCRIPT, tmp)
+    shutil.copy(INTERNED, tmp)
     table, scale = frame_table(rate=1000)
     with open(os.path.join(tmp, "frames.bin"), "wb") as f:
         f.write(table)
@@ -89,3 +93,49 @@ def test_nothing_holds_an_ended_session(tmp_path):
     assert dev.app.flow.session is None
     assert [r() for r in held] == [None] * 3, [gc.get_referrers(r()) for r in held if r() is not None]
     dev.close()
+
+
+def _later_imports():
+    """The firmware modules device/ and shared/ import inside a function (after boot), by their source."""
+    ours = {f[:-3] for f in os.listdir(os.path.join(REPO, "device")) if f.endswith(".py")}
+    ours |= {"shared." + f[:-3] for f in os.listdir(os.path.join(REPO, "shared")) if f.endswith(".py")}
+    found = set()
+    for folder in ("device", "shared"):
+        for f in sorted(os.listdir(os.path.join(REPO, folder))):
+            if f.endswith(".py"):
+                with open(os.path.join(REPO, folder, f)) as src:
+                    tree = ast.parse(src.read())
+                for fn in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
+                    for n in ast.walk(fn):
+                        if isinstance(n, ast.Import):
+                            found |= {a.name for a in n.names} & ours
+                        elif isinstance(n, ast.ImportFrom):
+                            found |= ({n.module} | {n.module + "." + a.name for a in n.names}) & ours
+    return sorted(found)
+
+
+@pytest.mark.parametrize("name", INTERPRETERS)
+def test_no_import_after_boot_interns_a_name(name, micropython, bench_folder):
+    """MicroPython's qstr pools never shrink and each new one is twice the last: the firmware's names
+    sit at the edge of a pool, and the next one takes ~9 KB in one block, which a heap a session has
+    fragmented could not give (finishes refused no_memory on the emulated Pico). device/firmware_names.py,
+    imported first at boot (device/session_modules.py intern_names), interns every name the firmware's
+    .mpy files hold: no module imported after boot (found in the sources) interns a name, and none of
+    them stays resident."""
+    exe = micropython if name == "micropython" else need(name)
+    folder, scale = bench_folder
+    later = _later_imports()
+    assert {"session", "shared.tempco", "residual_stats", "shared.quick"} <= set(later), later  # the scan works
+    root = "flash-interned-%s" % name
+    os.mkdir(os.path.join(folder, root))
+    r = subprocess.run([exe, "-X", "heapsize=512K", "interned.py", "frames.bin", root, repr(scale)] + later,
+                       capture_output=True, text=True, timeout=300, cwd=folder,
+                       env=dict(os.environ, MICROPYPATH="lib-py" if name == "circuitpython" else "lib"))
+    assert r.returncode == 0, (r.stdout + r.stderr)[-2000:]
+    out = r.stdout
+    pools = [re.search(r"n_pool=(\d+), n_qstr=(\d+)", part).groups() for part in out.split("later:")]
+    assert pools[0][0] == pools[1][0], out      # no new pool, the block that was refused
+    if name != "circuitpython":   # .mpy: not a name more. CircuitPython compiles the sources (lib-py),
+        assert pools[0] == pools[1], out   # whose local names its parser interns as well: only the pool
+    resident = out.split("resident:")[1].split()   # a session's and a finish's modules were dropped again
+    assert not {"session", "shared.fit", "shared.tempco", "residual_stats"} & set(resident), resident

@@ -122,13 +122,21 @@ def test_a_quick_finish_drains_the_ring_inside_its_solve():
     assert len(calls) >= 5 and [c[0] for c in calls] == ["service"] * len(calls), calls
 
 
-def test_the_start_keeps_free_a_block_the_size_of_the_gates_history():
-    """calibration_flow.start reserves HIST_BYTES while a session's modules load, for the gates'
-    removal history (docs/limits.md): the two sizes must not drift apart."""
+def test_the_start_takes_the_gates_history_before_the_session_modules_load():
+    """calibration_flow.start takes the gates' removal history (HIST_INTS ints, a session's largest
+    block) before a session's modules load into the heap's holes, and the gates use it, zeroed; one
+    of another length is refused: the two sizes must not drift apart (docs/limits.md)."""
+    from array import array
+
     flow = import_device("calibration_flow")
     gates = import_device("gates")
-    g = gates.Gates(import_device("config").defaults(), None, _Cov(), 2, 10.0, (0, 0, 0), native=False)
-    assert flow.HIST_BYTES == len(g.hist) * g.hist.itemsize == 5 * 4 * gates.HIST
+    cfg = import_device("config").defaults()
+    given = array("i", range(flow.HIST_INTS))
+    g = gates.Gates(cfg, None, _Cov(), 2, 10.0, (0, 0, 0), native=False, hist=given)
+    assert g.hist is given and not any(given)
+    assert flow.HIST_INTS == len(gates.Gates(cfg, None, _Cov(), 2, 10.0, (0, 0, 0), native=False).hist) == 5 * gates.HIST
+    with pytest.raises(ValueError):
+        gates.Gates(cfg, None, _Cov(), 2, 10.0, (0, 0, 0), native=False, hist=array("i", range(10)))
 
 
 class _Cov:

@@ -70,6 +70,19 @@ def test_package_json_is_generated_from_the_manifest():
     assert text == package_json_text()
 
 
+def test_firmware_names_is_generated_from_the_firmware():
+    """device/firmware_names.py holds every name the firmware's .mpy files intern (mpy-cross's qstr
+    tables; device/session_modules.py, why): stale, a board interns the new ones later."""
+    from desktop.firmware.names import firmware_modules, firmware_names, names_module
+
+    with open(os.path.join(DEVICE, "firmware_names.py")) as fh:
+        text = fh.read()
+    names = firmware_names()
+    assert "session" in names and "intern_names" in names and "shared.tempco" in names
+    assert text == names_module(names, firmware_modules()), \
+        "run: python -m desktop.firmware.names > device/firmware_names.py"
+
+
 def _entries(runtime):
     return [os.path.normpath(src) for src, _ in root_files(runtime)] or [os.path.join(SIM, "sim_main.py")]
 
