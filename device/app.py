@@ -19,7 +19,10 @@ the serial line, drive the LED, then idle for _HOUSE_MS. The DRDY handler does
 the boxcar itself and the ring holds 1.28 s of samples, so a pass runs every
 _HOUSE_MS whatever the rates: the button, serial and LED work of a pass (~35k
 instructions on a Cortex-M, docs/firmware.md) is paid 50 times a second, not
-once per sample.
+once per sample. Where an interrupt times the button's closings (MicroPython:
+hal button_edge) and no bytes came, a pass sleeps until the button's or the LED's next
+due time, at most _IDLE_MS: about 25 passes a second, the firmware less busy on the
+emulated Pico (docs/benchmarks.md); a press counts from its closing. The raw stream keeps 20 ms.
 
 Frames: where MicroPython has no Python stack (the rp2 port), a call whose state (locals and
 value stack, a word each; two more per active try) passes 11 words takes its frame from the heap
@@ -65,6 +68,7 @@ from survey import Output
 FIRMWARE_VERSION = "0.1.0"
 _DRAIN = 16      # samples per loop pass at least (more when more arrive per pass)
 _HOUSE_MS = 20   # a pass every 20 ms: button (debounce is 30 ms), serial, LED, samples
+_IDLE_MS = 40    # or up to 40 ms where an interrupt times the button and nothing is due sooner (wait)
 # board.busy keys: the main loop's work, charged as simulated time by the simulated board
 _SAMPLE_CAL = "sample_cal"
 _SAMPLE = "sample"
@@ -209,7 +213,10 @@ class App:
     def wait(self):
         """Idle for _HOUSE_MS: asleep where the DRDY handler is an interrupt, else counted in conversions.
 
-        On MicroPython (sleeps_with_irq) the pass sleeps in sleep_ms: machine.idle() also returns
+        On MicroPython (sleeps_with_irq) the pass sleeps in sleep_ms, up to _IDLE_MS where the
+        button's closings are timed by its interrupt (hal button_edge) and no bytes came: until
+        the button's next due poll (Button.due_ms) or the LED's next change (Led.due_ms), so a
+        press counts from its closing and the LED changes on time. machine.idle() also returns
         at the rp2 port's 1 ms wake-up alarm and at USB interrupts, so a loop of idle() calls
         woke the Python code some 3,300 times a second and ended passes early (155 passes a
         second, not 50, on the emulated Pico).
@@ -223,7 +230,7 @@ class App:
         if b.sleeps_with_irq:
             # the DRDY interrupt fills the ring while the core sleeps: one call, and the
             # wake-ups inside it (every interrupt, 1000 DRDY a second) stay in C
-            b.sleep_ms(_HOUSE_MS)
+            b.sleep_ms(self._pass_ms(b))
             return
         if self.supervisor.fault:   # no conversions to count: by the clock
             t0 = b.ticks_ms()
@@ -237,6 +244,15 @@ class App:
         while n > 0:
             idle()
             n -= 1
+
+    def _pass_ms(self, b):
+        # (its own frame: in wait's, the calls' stack passed the 11 words of a frame on the C stack).
+        # The raw stream (a capture: every sample a line) keeps 20 ms passes: on the unix stand-in, whose
+        # DRDY is served only while the core waits, a 40 ms pass's output covered a block's window and
+        # lost its sample (1 capture in 3 on a loaded host, tests/test_laptop_chain.py)
+        if self.proto.heard or not b.button_edges or self.output.stream == "raw":
+            return _HOUSE_MS
+        return self.led.due_ms(self.button.due_ms(_IDLE_MS))
 
 
 def start(hal):

@@ -44,7 +44,9 @@ def version(app, args):
 def status(app, args):
     flow = app.flow
     out = {"state": "fault" if app.supervisor.fault else ("calibrating" if flow.session else "survey"),
-           "config_problems": app.config_problems, "watchdog_ms": app.watchdog_ms}
+           "config_problems": app.config_problems, "watchdog_ms": app.watchdog_ms,
+           # the button's closings: timed by the pin's interrupt (hal button_edge) or found by the pass
+           "button": "interrupt" if app.board.button_edges else "polled"}
     for part in (app.supervisor, app.guard, flow, app.output):
         out.update(part.status())
     if hasattr(gc, "mem_free"):   # MicroPython, CircuitPython

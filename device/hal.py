@@ -10,6 +10,10 @@ below are what real hardware does.
 Timing facts cited: [DS] = ADS1292 datasheet SBAS502C.
 """
 
+# a button closing timed by an interrupt is taken by the poll that finds it (button.py) up to this
+# long after: a main-loop pass or two (app.py), never a stale one from a release's bounce
+EDGE_MS = 100
+
 
 class Board:
     REG_BAUD = 1000000    # SCLK during register access: <= 2 fCLK = 1.024 MHz [DS §8.3.7]
@@ -65,6 +69,13 @@ class Board:
     def button(self):
         """True while the button is pressed (raw level; button.py debounces)."""
         raise NotImplementedError("button")
+
+    button_edges = False    # True where button_edge times the presses (a pin interrupt)
+
+    def button_edge(self, now):
+        """The ticks_ms at which the button last closed, where an interrupt times it and that was
+        at most EDGE_MS before `now` (hal_micropython.py); else `now`, the poll's own time."""
+        return now
 
     def attach_drdy(self, handler, rate=0, on_gap=None):
         """Call handler(pin) on each DRDY falling edge of chip 0.

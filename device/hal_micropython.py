@@ -24,6 +24,7 @@ but ends the timer.
 
 import sys
 import time
+from array import array
 
 import machine
 import micropython
@@ -129,6 +130,17 @@ class Board(hal.Board):
         self._reset = P(cfg["pin_reset"], P.OUT, value=1)
         self._drdy = P(cfg["pin_drdy"], P.IN, P.PULL_UP)
         self._button = P(cfg["pin_button"], P.IN, P.PULL_UP)  # active low to GND
+        # its closings timed by a hard IRQ (the main loop's pass may come 40 ms later, app.py):
+        # ticks_ms of the last one, 1 until button_edge takes it
+        self._closed = array("i", [0, 0])
+        try:
+            try:
+                self._button.irq(handler=self._button_closed, trigger=P.IRQ_FALLING, hard=True)
+            except TypeError:   # esp32: no hard IRQs; the handler is scheduled (within a ms or so)
+                self._button.irq(handler=self._button_closed, trigger=P.IRQ_FALLING)
+            self.button_edges = True
+        except (AttributeError, ValueError, OSError):   # no interrupt on this pin: polled alone
+            pass
         self._led = P(cfg["pin_led"], P.OUT, value=0)
         self._poll = None
         if select is not None:
@@ -205,6 +217,19 @@ class Board(hal.Board):
 
     def button(self):
         return self._button() == 0
+
+    def _button_closed(self, _pin):
+        # a hard IRQ: nothing allocated (a small int into the array)
+        c = self._closed
+        c[0] = time.ticks_ms()
+        c[1] = 1
+
+    def button_edge(self, now):
+        c = self._closed
+        if c[1] and time.ticks_diff(now, c[0]) <= hal.EDGE_MS:
+            c[1] = 0
+            return c[0]
+        return now
 
     def attach_drdy(self, handler, rate=0, on_gap=None):
         # rate and on_gap are for polling HALs: a hard IRQ sees every DRDY,

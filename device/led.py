@@ -50,6 +50,12 @@ class Led:
         self._until = (ms if ms is not None else total) or 1
         self._next = -1
 
+    def due_ms(self, most):
+        """ms until the next change update() found (at least 1), at most `most`: the pass's sleep (app.py)."""
+        b = self.board
+        left = self._next - b.ticks_diff(b.ticks_ms(), self._start)
+        return most if left > most else (left if left > 1 else 1)
+
     def update(self):
         # every main-loop pass: return at once until the next change is due
         b = self.board

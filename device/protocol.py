@@ -86,6 +86,7 @@ class Protocol:
         self.context = context     # what the handlers act on (the App)
         self._buf = bytearray()
         self._overlong = False
+        self.heard = False         # bytes came at the last poll
         self.errors = 0
 
     # ****** output ******
@@ -123,6 +124,7 @@ class Protocol:
         wrong port) is discarded at the speed of one C search per read, so a request behind
         it is answered within seconds, not minutes (docs/protocol.md, Framing)."""
         data = self.board.serial_read()
+        self.heard = data is not None     # bytes came: the main loop's next pass is a short one (app.py)
         if not data:
             return
         start, end = 0, len(data)

@@ -15,7 +15,9 @@ import pytest
 
 from desktop.firmware.files import import_device
 
+app = import_device("app")
 button = import_device("button")
+hal = import_device("hal")
 led = import_device("led")
 health = import_device("health")
 acquisition = import_device("acquisition")
@@ -44,8 +46,43 @@ class Board:
     def button(self):
         return self.pressed
 
+    button_edges = False    # polled alone (hal.Board's default): a press counts from the pass that finds it
+
+    def button_edge(self, now):
+        return now
+
     def led(self, on):
         self.writes.append((self.t - T0, on))
+
+
+class TimedBoard(Board):
+    """A board whose interrupt times the button's closings (hal_micropython.py): each ms of the
+    pass's sleep the contact is looked at, and a closing's ms recorded, taken by button_edge as
+    hal_micropython takes it (hal.EDGE_MS at most before the poll)."""
+    sleeps_with_irq = True
+    button_edges = True
+
+    def __init__(self, contact):
+        super().__init__()
+        self.contact = contact
+        self.closed = [0, 0]       # ticks_ms of the last closing, 1 until taken
+        self.sleeps = []           # each pass's sleep, ms
+
+    def button_edge(self, now):
+        c = self.closed
+        if c[1] and self.ticks_diff(now, c[0]) <= hal.EDGE_MS:
+            c[1] = 0
+            return c[0]
+        return now
+
+    def sleep_ms(self, ms):
+        self.sleeps.append(ms)
+        for _ in range(ms):
+            self.t += 1
+            was, self.pressed = self.pressed, self.contact(self.t - T0)
+            if self.pressed and not was:
+                self.closed[0] = self.t % PERIOD
+                self.closed[1] = 1
 
 
 def run_button(contact, until, step=PASS_MS):
@@ -84,6 +121,95 @@ def test_a_long_press_fires_once_while_held_and_its_release_gives_no_short():
     assert button.Button.long_ms == 1500 and button.Button.debounce_ms == 30
 
 
+def run_passes(contact, until, pattern=led.COLLECTING, heard=False, stream="off"):
+    """The MicroPython main loop's passes (device/app.py App.wait: a short one where bytes came,
+    else until the button's or the LED's next due time, at most _IDLE_MS), the board's interrupt
+    timing the closings: [(ms, event)], the Button, the board."""
+    b = TimedBoard(contact)
+    btn = button.Button(b)
+    lamp = led.Led(b)
+    lamp.set(pattern)
+    loop = type("Loop", (), {})()       # what App.wait reads
+    loop.board, loop.button, loop.led = b, btn, lamp
+    loop.proto = type("Proto", (), {"heard": heard})()
+    loop.supervisor = type("Sup", (), {"fault": None})()
+    loop.output = type("Out", (), {"stream": stream})()
+    loop._pass_ms = lambda board: app.App._pass_ms(loop, board)
+    events = []
+    while b.t < T0 + until:
+        ev = btn.poll()
+        if ev is not None:
+            events.append((b.t - T0, ev))
+        lamp.update()
+        app.App.wait(loop)
+    return events, btn, b
+
+
+@pytest.mark.parametrize("start", range(0, 40, 3))
+@pytest.mark.parametrize("held", [41, 45, 70, 200])
+def test_a_press_counts_from_its_closing_where_an_interrupt_times_it(start, held):
+    # the contact closes at any phase of a 40 ms idle pass and holds `held` ms (polled every 20 ms,
+    # a press had to hold 40-60 ms): one SHORT, and the press's time is the closing's to the ms
+    # (a survey mark's), not the pass that found it
+    close = 1000 + start
+    events, btn, b = run_passes(lambda ms: close <= ms < close + held, 2000)
+    assert [ev for _, ev in events] == [button.SHORT]
+    assert btn.pressed_at == (T0 + close) % PERIOD
+    assert events[0][0] <= close + held + button.Button.debounce_ms + 2 * app._HOUSE_MS
+
+
+def test_idle_passes_are_long_and_a_closed_button_or_bytes_make_them_short():
+    _, _, b = run_passes(lambda ms: False, 3000, pattern=led.SURVEY)
+    assert max(b.sleeps) == app._IDLE_MS and b.sleeps.count(app._IDLE_MS) > 0.9 * len(b.sleeps)
+    _, _, b = run_passes(lambda ms: ms >= 500, 3000, pattern=led.SURVEY)
+    assert set(b.sleeps[-50:]) == {app._HOUSE_MS}               # held: the short pass
+    _, _, b = run_passes(lambda ms: False, 3000, pattern=led.SURVEY, heard=True)
+    assert set(b.sleeps) == {app._HOUSE_MS}                     # bytes at every poll
+    _, _, b = run_passes(lambda ms: False, 3000, pattern=led.SURVEY, stream="raw")
+    assert set(b.sleeps) == {app._HOUSE_MS}                     # a capture's every sample a line
+    _, _, b = run_passes(lambda ms: False, 3000, pattern=led.SURVEY, stream="corrected")
+    assert max(b.sleeps) == app._IDLE_MS                        # the survey's blocks: long passes
+
+
+def pattern_writes(pattern, until):
+    """[(ms, on)]: the pattern's writes, each phase's start (a zero-length phase writes nothing), before until."""
+    want, t, on, k = [], 0, True, 0
+    while t < until:
+        if pattern[k % len(pattern)]:
+            want.append((t, on))
+        t += pattern[k % len(pattern)]
+        on = not on
+        k += 1
+    return want
+
+
+@pytest.mark.parametrize("pattern", [led.ENOUGH, led.FAULT, led.COLLECTING, led.FAILED])
+def test_the_led_changes_on_time_between_long_passes(pattern):
+    # the pass sleeps until the LED's next change: each change written within a ms of its time
+    _, _, b = run_passes(lambda ms: False, 4000, pattern=pattern)
+    want = pattern_writes(pattern, 3900)
+    got = changes(b.writes)
+    assert [on for _, on in got[:len(want)]] == [on for _, on in changes(want)]
+    assert max(abs(g - w) for (g, _), (w, _) in zip(got, changes(want))) <= 1
+
+
+def test_a_stale_closing_is_not_a_press_s_time():
+    # a closing recorded longer than hal.EDGE_MS before the poll that finds the contact closed (a
+    # release's bounce, say) is not taken: the press counts from that poll
+    b = TimedBoard(lambda ms: False)
+    btn = button.Button(b)
+    b.closed = [(T0 + 100) % PERIOD, 1]
+    b.t, b.pressed = T0 + 101 + hal.EDGE_MS, True
+    assert btn.poll() is None
+    assert btn._changed == (T0 + 101 + hal.EDGE_MS) % PERIOD
+    b.closed = [(T0 + 2000) % PERIOD, 1]       # and within it, it is
+    b.t, b.pressed = T0 + 2000 + hal.EDGE_MS, False
+    btn.poll()
+    b.pressed = True
+    btn.poll()
+    assert btn._changed == (T0 + 2000) % PERIOD
+
+
 def run_led(pattern, until, step=PASS_MS, flash=None):
     b = Board()
     d = led.Led(b)
@@ -108,13 +234,7 @@ def changes(writes):
 @pytest.mark.parametrize("pattern", [led.UNCALIBRATED, led.SURVEY, led.COLLECTING, led.SLOW_DOWN, led.SAFE])
 def test_a_steady_pattern_changes_the_led_at_its_times_and_writes_only_then(pattern):
     writes = run_led(pattern, 8000, step=10)
-    want, t, on, k = [], 0, True, 0
-    while t < 8000:
-        if pattern[k % len(pattern)]:
-            want.append((t, on))
-        t += pattern[k % len(pattern)]
-        on = not on
-        k += 1
+    want = pattern_writes(pattern, 8000)
     assert changes(writes) == changes(want)
     assert len(writes) == len(changes(writes))     # no write between changes
 

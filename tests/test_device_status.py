@@ -14,7 +14,7 @@ ALWAYS = {"v", "ok", "cmd", "state", "fault", "fault_code", "safe_mode", "errors
           "tempco_range", "last_cal", "frames", "overflow", "missed", "badsync", "discarded", "gaps", "samples",
           "spikes", "clipped", "screen", "delag_us", "delag", "sums", "linalg", "magnitude", "drdy", "drdy_counter", "reader", "sample",
           "unfinished_boots",
-          "watchdog_reset", "watchdog_ms"}
+          "watchdog_reset", "watchdog_ms", "button"}
 # the ADC's run-time health exists once the chips answered at boot
 HEALTH = {"adc_faults"}
 # a calibration in progress: its progress report
@@ -35,6 +35,7 @@ def test_survey_reply(tmp_path):
         assert s["delag"] == "python"    # ... nor the de-lag's
         assert (s["reader"], s["sample"]) == ("python", "python")   # ... nor the ring's reader, the output's sample
         assert s["magnitude"] is None    # no calibration in force: no |h_c|
+        assert s["button"] == "polled"   # the simulator's HAL times no closing by an interrupt
         assert s["samples"] > 0 and s["frames"] > s["samples"]   # decimated: fewer samples than frames
     finally:
         dev.close()

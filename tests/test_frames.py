@@ -26,8 +26,9 @@ STACK_BYTES = 11 * 4      # VM_MAX_STATE_ON_STACK on a 32-bit port
 # Led.update (17), Health.check (18): a split of each into a small usual path and a method for the
 # rest costs 32-80 B of the 32-bit heap (python -m desktop.bench.heap) for ~1 k cycles a pass
 PER_PASS = {
-    "app.py": ["App.step", "App.wait"],
-    "button.py": ["Button.poll"],
+    "app.py": ["App.step", "App.wait", "App._pass_ms"],
+    "button.py": ["Button.poll", "Button.due_ms"],
+    "led.py": ["Led.due_ms"],
     "health.py": ["AdcSupervisor.check"],
     "bootguard.py": ["Guard.passed"],
     "calibration_flow.py": ["CalibrationFlow.tick"],

@@ -5,7 +5,8 @@ One test, one emulator: its deploy and each boot cost tens of wall seconds (the 
 than real time), and a module-scoped emulator would be started once per xdist worker. In order:
 1. clients that come while the emulator deploys its own firmware are told it is busy, and the
    emulator carries on to "ready";
-2. every laptop command (status, calibrate --auto, pull-cal, push-cal, capture, report, monitor);
+2. the button pressed (key p) starts a calibration, its closing timed by the pin's interrupt;
+   every laptop command (status, calibrate --auto, pull-cal, push-cal, capture, report, monitor);
    the calibration with a shorter configuration (SHORT_CAL), set over the protocol as a user
    would with `config set`, after a session started and cancelled; a quick one starts after the
    survey (a small heap in pieces: calibration_flow.py start);
@@ -140,6 +141,16 @@ def test_the_laptop_commands_a_power_cycle_and_the_watchdog_on_the_emulated_pico
         # from a heap the last one left in pieces (calibration_flow.py start; docs/firmware.md)
         started, during, _ = ask(port, "start-cal", "status", "cancel-cal")
         assert started["ok"] and during["cal"]["gates"] == "native", during
+        # the button (the operator's key p, 0.2 s): its closing timed by the pin's hard IRQ, a short
+        # press starts a calibration
+        assert during["button"] == "interrupt", during
+        emu.stdin.write("p")
+        emu.stdin.flush()
+        deadline = time.monotonic() + 120
+        while ask(port, "status")[0]["state"] != "calibrating":
+            assert time.monotonic() < deadline, "the press started no calibration"
+            time.sleep(1.0)
+        assert ask(port, "cancel-cal")[0]["ok"]
         out = ok(fluxcal("calibrate", "--auto", "--port", port, *SLOW, timeout=600))   # the operator follows the LED
         assert "calibration done" in out and "saved, in force" in out, out
         ok(fluxcal("pull-cal", "-o", tmp_path / "device.json", "--port", port, *SLOW))
