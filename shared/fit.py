@@ -107,7 +107,7 @@ class EllipsoidFit:
     def sums(self):
         """A copy of the 35 power sums (shared.moments.ORDER)."""
         self._unpack()
-        return list(self._s)
+        return self._s[:]   # one block of 35 items (list() grows one by doubling)
 
     def low_sums(self):
         """A copy of the first 10 sums (the count, degree 1 and 2: shared.moments.ORDER). With the

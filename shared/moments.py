@@ -76,7 +76,7 @@ def recentred(sums, centre):
     along fewer axes (the solver calls this per trial state, from the nearest state's sums;
     on a Cortex-M each big-integer operation is a heap allocation, docs/firmware.md).
     """
-    s = list(sums)
+    s = sums[:]    # a slice is one block of COUNT items; list(sums) grows one by doubling to 64
     for axis in range(3):
         c = centre[axis]
         if c:
