@@ -24,6 +24,8 @@ block; then no module interns a name. A frozen image's names are in its flash.
 import sys
 
 _UNLOAD = sys.implementation.name != "cpython"
+_NAMES = "firmware_names"
+
 
 def sums_path():
     """Which sums the fit runs, "native" or "python" (`status`); the session's native modules, resident from here."""
@@ -59,9 +61,9 @@ def intern_names():
     # an import interns the file it loaded too (the module's __file__): the firmware's, as this board
     # names them ("/lib/session.mpy"); not where the modules are frozen (their names in flash)
     path = getattr(names, "__file__", "")
-    at = path.find("firmware_names.")
+    at = path.find(_NAMES + ".")
     if at >= 0 and not path.startswith(".frozen"):
-        head, tail = path[:at], path[at + 14:]
+        head, tail = path[:at], path[at + len(_NAMES):]   # "/lib/", ".mpy"
         for m in names.MODULES:
             getattr(names, head + m + tail, None)
     drop_modules(resident)
