@@ -19,11 +19,10 @@ the serial line, drive the LED, then idle for _HOUSE_MS. The DRDY handler does
 the boxcar itself and the ring holds 1.28 s of samples, so a pass runs every
 _HOUSE_MS whatever the rates: the button, serial and LED work of a pass (~35k
 instructions on a Cortex-M, docs/firmware.md) is paid 50 times a second, not
-once per sample. Where an interrupt times the button's closings and openings (MicroPython:
-hal button_edge, button_press) and no bytes came, a pass sleeps until the button's or the LED's
-next due time, at most _IDLE_MS: about 10 passes a second, the firmware less busy on the
-emulated Pico (docs/benchmarks.md); a press counts from its closing, and one that opened before
-the next pass is still taken. The raw stream keeps 20 ms.
+once per sample. Where an interrupt times the button's closings (MicroPython:
+hal button_edge) and no bytes came, a pass sleeps until the button's or the LED's next
+due time, at most _IDLE_MS: about 25 passes a second, the firmware less busy on the
+emulated Pico (docs/benchmarks.md); a press counts from its closing. The raw stream keeps 20 ms.
 
 Frames: where MicroPython has no Python stack (the rp2 port), a call whose state (locals and
 value stack, a word each; two more per active try) passes 11 words takes its frame from the heap
@@ -69,9 +68,7 @@ from survey import Output
 FIRMWARE_VERSION = "0.1.0"
 _DRAIN = 16      # samples per loop pass at least (more when more arrive per pass)
 _HOUSE_MS = 20   # a pass every 20 ms: button (debounce is 30 ms), serial, LED, samples
-# or up to 100 ms where an interrupt times the button's closings and openings and nothing is due
-# sooner (wait), and at most a quarter of what the DRDY ring holds (_setup_pipeline)
-_IDLE_MS = 100
+_IDLE_MS = 40    # or up to 40 ms where an interrupt times the button and nothing is due sooner (wait)
 # board.busy keys: the main loop's work, charged as simulated time by the simulated board
 _SAMPLE_CAL = "sample_cal"
 _SAMPLE = "sample"
@@ -141,10 +138,8 @@ class App:
             self.acq.set_decimation(c["decim"], c["window"])   # counters from zero: a new boxcar
         self.supervisor.rate_changed(c["rate"], self.board.ticks_ms())
         self._house_idles = max(1, c["rate"] * _HOUSE_MS // 1000)
-        # the longest idle pass: a quarter of the ring's span (128 samples: 1.28 s at 100 a second)
-        self._idle_ms = max(_HOUSE_MS, min(_IDLE_MS, self.acq.ring_frames * 250 * c["decim"] // c["rate"]))
-        # twice what the longest pass brings: a pass that ran late catches up in the next
-        self._drain = max(_DRAIN, 2 * (c["rate"] * self._idle_ms // 1000 // c["decim"] + 1))
+        # twice what a pass brings: a pass that ran late catches up in the next
+        self._drain = max(_DRAIN, 2 * (self._house_idles // c["decim"] + 1))
         self.flow.configure(c)
         self.output.configure(c, c["rate"] / c["decim"])
         if not self.supervisor.fault:
@@ -218,8 +213,8 @@ class App:
     def wait(self):
         """Idle for _HOUSE_MS: asleep where the DRDY handler is an interrupt, else counted in conversions.
 
-        On MicroPython (sleeps_with_irq) the pass sleeps in sleep_ms, up to _idle_ms where the
-        button is timed by its interrupt (hal button_edge, button_press) and no bytes came: until
+        On MicroPython (sleeps_with_irq) the pass sleeps in sleep_ms, up to _IDLE_MS where the
+        button's closings are timed by its interrupt (hal button_edge) and no bytes came: until
         the button's next due poll (Button.due_ms) or the LED's next change (Led.due_ms), so a
         press counts from its closing and the LED changes on time. machine.idle() also returns
         at the rp2 port's 1 ms wake-up alarm and at USB interrupts, so a loop of idle() calls
@@ -257,7 +252,7 @@ class App:
         # lost its sample (1 capture in 3 on a loaded host, tests/test_laptop_chain.py)
         if self.proto.heard or not b.button_edges or self.output.stream == "raw":
             return _HOUSE_MS
-        return self.led.due_ms(self.button.due_ms(self._idle_ms))
+        return self.led.due_ms(self.button.due_ms(_IDLE_MS))
 
 
 def start(hal):

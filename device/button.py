@@ -6,12 +6,10 @@
     btn.due_ms(40)    # ms until it needs the next poll, at most 40 (app.py's pass)
 
 Polled rather than interrupt driven: CircuitPython has no user interrupts, and
-a human press lasts tens of milliseconds, far longer than a main-loop pass (20 ms there). Where
-the board times the contact with an interrupt (hal button_edge and button_press: MicroPython),
-the press counts from its closing: a pass that finds the contact closed takes the press at once
-if it has held debounce_ms, a pass that finds it open again takes a whole press the interrupt
-saw hold debounce_ms or more since the last pass (app.py's passes of up to 100 ms), and
-pressed_at is the closing itself. Two presses between two passes are one.
+a human press lasts tens of milliseconds, far longer than a main-loop pass. Where the board
+times the closing with an interrupt (hal button_edge: MicroPython), the press counts from it:
+a pass that finds the contact closed up to app.py's _IDLE_MS after it takes the press at once
+if it has held debounce_ms, and pressed_at is the closing itself.
 Timings are class attributes so a board file can override them (after
 peterhinch's Pushbutton).
 """
@@ -40,19 +38,9 @@ class Button:
         raw = b.button()
         if raw != self._raw:
             self._raw = raw
-            # closed: since the closing the interrupt timed; opened: the closings it saw while the
-            # contact was held (its bounces) go with the press
-            edge = b.button_edge(now)
-            self._changed = edge if raw else now
+            self._changed = b.button_edge(now) if raw else now
             if b.ticks_diff(now, self._changed) < self.debounce_ms:
                 return None
-        elif not raw and not self._level and b.button_edges:
-            # open at this poll and the last: a press the interrupt saw close and open between them
-            at = b.button_press(now, self.debounce_ms)
-            if at is None:
-                return None
-            self.pressed_at = at
-            return SHORT
         if raw == self._level or b.ticks_diff(now, self._changed) < self.debounce_ms:
             if self._level and not self._long_sent and b.ticks_diff(now, self._down_at) >= self.long_ms:
                 self._long_sent = True

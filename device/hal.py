@@ -11,9 +11,8 @@ Timing facts cited: [DS] = ADS1292 datasheet SBAS502C.
 """
 
 # a button closing timed by an interrupt is taken by the poll that finds it (button.py) up to this
-# long after: two of the main loop's longest passes (app.py _IDLE_MS) and their work, never a
-# stale one from a release's bounce or from before a long step (a finish's solve)
-EDGE_MS = 250
+# long after: a main-loop pass or two (app.py), never a stale one from a release's bounce
+EDGE_MS = 100
 
 
 class Board:
@@ -71,19 +70,12 @@ class Board:
         """True while the button is pressed (raw level; button.py debounces)."""
         raise NotImplementedError("button")
 
-    button_edges = False    # True where button_edge and button_press time the presses (a pin interrupt)
+    button_edges = False    # True where button_edge times the presses (a pin interrupt)
 
     def button_edge(self, now):
         """The ticks_ms at which the button last closed, where an interrupt times it and that was
         at most EDGE_MS before `now` (hal_micropython.py); else `now`, the poll's own time."""
         return now
-
-    def button_press(self, now, least_ms):
-        """A whole press between two polls that found the button open, where an interrupt times
-        the closings and openings: the ticks_ms of its first closing, if that was at most EDGE_MS
-        before `now` and its last opening more than least_ms after it (as a poll that finds the
-        contact still closed least_ms after its closing); else None. Taken once."""
-        return None
 
     def attach_drdy(self, handler, rate=0, on_gap=None):
         """Call handler(pin) on each DRDY falling edge of chip 0.

@@ -130,16 +130,14 @@ class Board(hal.Board):
         self._reset = P(cfg["pin_reset"], P.OUT, value=1)
         self._drdy = P(cfg["pin_drdy"], P.IN, P.PULL_UP)
         self._button = P(cfg["pin_button"], P.IN, P.PULL_UP)  # active low to GND
-        # its closings and openings timed by a hard IRQ (the main loop's pass may come 100 ms
-        # later, app.py): ticks_ms of the first closing not yet taken, 1 while there is one (until
-        # button_edge or button_press takes it), ticks_ms of the last opening after it
-        self._closed = array("i", [0, 0, 0])
-        edges = P.IRQ_FALLING | P.IRQ_RISING
+        # its closings timed by a hard IRQ (the main loop's pass may come 40 ms later, app.py):
+        # ticks_ms of the last one, 1 until button_edge takes it
+        self._closed = array("i", [0, 0])
         try:
             try:
-                self._button.irq(handler=self._button_moved, trigger=edges, hard=True)
+                self._button.irq(handler=self._button_closed, trigger=P.IRQ_FALLING, hard=True)
             except TypeError:   # esp32: no hard IRQs; the handler is scheduled (within a ms or so)
-                self._button.irq(handler=self._button_moved, trigger=edges)
+                self._button.irq(handler=self._button_closed, trigger=P.IRQ_FALLING)
             self.button_edges = True
         except (AttributeError, ValueError, OSError):   # no interrupt on this pin: polled alone
             pass
@@ -220,17 +218,11 @@ class Board(hal.Board):
     def button(self):
         return self._button() == 0
 
-    def _button_moved(self, _pin):
-        # a hard IRQ: nothing allocated (small ints into the array). The level is read, not the
-        # edge's kind: a bounce quicker than the interrupt's latency reads as where it settled.
-        # A press's bounces keep its first closing and move its last opening (button_press)
+    def _button_closed(self, _pin):
+        # a hard IRQ: nothing allocated (a small int into the array)
         c = self._closed
-        if self._button() == 0:
-            if not c[1]:
-                c[0] = time.ticks_ms()
-                c[1] = 1
-        elif c[1]:
-            c[2] = time.ticks_ms()
+        c[0] = time.ticks_ms()
+        c[1] = 1
 
     def button_edge(self, now):
         c = self._closed
@@ -238,17 +230,6 @@ class Board(hal.Board):
             c[1] = 0
             return c[0]
         return now
-
-    def button_press(self, now, least_ms):
-        c = self._closed
-        if not c[1]:
-            return None
-        c[1] = 0
-        # an opening recorded before this closing (its IRQ read the contact still closed) is older
-        # than it: no whole press, as is a closing from before a long step
-        if time.ticks_diff(now, c[0]) > hal.EDGE_MS or time.ticks_diff(c[2], c[0]) <= least_ms:
-            return None
-        return c[0]
 
     def attach_drdy(self, handler, rate=0, on_gap=None):
         # rate and on_gap are for polling HALs: a hard IRQ sees every DRDY,

@@ -63,8 +63,6 @@ class LoopBoard:
     def led(self, on):
         pass
 
-    button_edges = False      # polled alone (hal.Board's default)
-
     def button(self):
         return self.pressed
 
