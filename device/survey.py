@@ -133,6 +133,7 @@ class Output:
         self.recorder = None       # a survey being recorded (surveylog.Recorder): each block's |B|
         self.survey = None
         self.screen = None
+        self._chain = None         # what the screen and the de-lag were made for (configure)
         self.delag = None          # the sensor's lag undone (shared/delag.py), when _delag_on
         self._delag_on = False
         self.scale = None
@@ -155,13 +156,20 @@ class Output:
         c = self.cfg = cfg
         self.survey = Survey(c, c["window"], sample_hz)
         self.scale = (c["scale_x"], c["scale_y"], c["scale_z"])
-        self.screen = Screen(self.scale, c["window"], c["spike_nt"])
-        self._clipped = 0
-        self.delag = Delag(c["window"])
-        # the gates' break_chain reached through this Output, never bound: held by the de-lag, the
-        # gates' bound method kept an ended session's gates, fit and their modules' bytecode alive
-        # into the next (a second calibration needed 256 KB of a 32-bit heap, 210 KB without)
-        self.delag.on_hole = self._hole
+        # the screen and the de-lag kept, with what they hold and learnt, where nothing of theirs
+        # changed (`config set survey_hz`, as fluxcal capture starts): a new screen knows no
+        # hand's bends yet, and took a turning hand's reversal in its first samples for a spike
+        chain = (self.scale, c["window"], c["spike_nt"], c["rate"], c["decim"], c["gain_x"], c["gain_y"],
+                 c["gain_z"])
+        if chain != self._chain:
+            self._chain = chain
+            self.screen = Screen(self.scale, c["window"], c["spike_nt"])
+            self._clipped = 0
+            self.delag = Delag(c["window"])
+            # the gates' break_chain reached through this Output, never bound: held by the de-lag,
+            # the gates' bound method kept an ended session's gates, fit and their modules'
+            # bytecode alive into the next (a second calibration: 256 KB of a 32-bit heap, 210 without)
+            self.delag.on_hole = self._hole
         self._f_unit = 1000.0 * (1 << FRACTION_BITS) / c["window"]   # nT of a window's sums -> |h_c|'s unit
         if c["log"] and self.log is None:
             self.log = RotatingLog(self.board.root, c["log_file_bytes"], c["log_files"], c["log_reserve_bytes"])

@@ -20,7 +20,7 @@ import sys
 
 import pytest
 
-from tests.device_session import boot
+from tests.device_session import ask, boot, configured, events
 from tests.interpreters import INTERPRETERS, need
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -225,3 +225,27 @@ def test_a_one_sample_gap_is_judged_across_not_restarted():
     assert not bad and len(out) > 0.9 * (2000 - len(lost)), sorted((i, (i - 10) % 9) for i in bad)
     assert joined.count(True) > 0.9 * len(joined) > 180
     assert sc.allowance() <= 1.5 * gapless.allowance(), (sc.allowance(), gapless.allowance())
+
+
+def test_a_config_change_that_leaves_the_screen_alone_keeps_it(tmp_path):
+    """`config set survey_hz` (fluxcal capture's first request) rebuilt the screen: the new one
+    let go of the two samples it held and, knowing no hand's bends yet, took a turning hand's
+    reversal in its first samples for a spike (a capture's sample lost, tests/test_laptop_chain.py,
+    1 run in 20 or so). On a turning hand, 28 such changes in 12 s lose no sample of the raw
+    stream; a change of what the screen judges with (spike_nt) starts a new one."""
+    w, dev = configured(tmp_path, "hand", 14.0, auto_finish=False, survey_hz=100)
+    start = len(w.lines())
+    ask(w, dev, "stream raw")
+    changes = 0
+    while w.time < 12.0:
+        ask(w, dev, "config set survey_hz 100", dt=0.4)
+        changes += 1
+    ns = [e["n"] for e in events(w, "raw", start)]
+    assert changes >= 25 and len(ns) > 1000 and ns == list(range(ns[0], ns[0] + len(ns))), (
+        changes, [(a, b) for a, b in zip(ns, ns[1:]) if b != a + 1][:10])
+    assert ask(w, dev, "status")["spikes"] == 0
+    before = len(w.lines())
+    ask(w, dev, "config set spike_nt 31", dt=0.5)
+    ns = [e["n"] for e in events(w, "raw", before)]
+    # a new screen: the two samples it takes before it judges one are not sent
+    assert [b - a for a, b in zip(ns, ns[1:]) if b != a + 1] == [3], ns
