@@ -215,4 +215,4 @@ class Board(hal.Board):
         if _data is not None:
             _data.write(data)
         else:
-            sys.stdout.write(data.decode())
+            sys.stdout.write(bytes(data).decode())

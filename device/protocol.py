@@ -35,14 +35,15 @@ def json_number(x, nd=3):
 
 # the survey's per-block event lines (device/survey.py), each one bytes format of the whole line,
 # written out (not joined at import: the heap): the protocol version first, then the raw
-# event's or the data event's members; the temperature's "%.2f" (as "%s" of null when it is
-# not a number: survey.py makes that format then, a fault's rare case), the mean codes in
-# hundredths, the data event's h_c and |h_c| in thousandths; each number three parts of
-# parts3(). Bytes, and one format a block: each str made costs ~15 k
-# cycles on an RP2040 (MicroPython looks it up among the interned ones), a bytes ~1.5 k, and
-# the line goes to the serial port as it is (Protocol.send_line), no head, join or encode
-RAW_LINE = b'{"v": %d, "ev": "raw", "t": %d, "n": %d, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "temp": %.2f}\n'
-DATA_LINE = (b'{"v": %d, "ev": "data", "t": %d, "temp": %.2f, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "cal": %s, '
+# event's or the data event's members; the temperature as bytes ("%.2f" of it, or null when it
+# is not a number), the mean codes in hundredths, the data event's h_c and |h_c| in thousandths;
+# each of those numbers three parts of parts3() (|h_c| two: never negative). Bytes, and one
+# format a block: each str made costs ~15 k cycles on an RP2040 (MicroPython looks it up among
+# the interned ones), a bytes ~1.5 k, and the line goes to the serial port as it is
+# (Protocol.send_line), no head, join or encode. fitsums.line (device/native/line.h) writes the
+# same line from the numbers themselves into a buffer the survey owns, nothing allocated.
+RAW_LINE = b'{"v": %d, "ev": "raw", "t": %d, "n": %d, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "temp": %s}\n'
+DATA_LINE = (b'{"v": %d, "ev": "data", "t": %d, "temp": %s, "c": [%s%d.%02d, %s%d.%02d, %s%d.%02d], "cal": %s, '
              b'"warn": %s, "b": [%s%d.%03d, %s%d.%03d, %s%d.%03d], "f": %d.%03d}\n')
 
 
@@ -112,8 +113,9 @@ class Protocol:
         self.send(out)
 
     def send_line(self, line):
-        """An event line made whole (bytes, newline ended): survey.py's per-block events (RAW_LINE,
-        DATA_LINE), 10 a second, printed from integers to digits a narrow float cannot hold."""
+        """An event line made whole (newline ended): survey.py's per-block events (RAW_LINE,
+        DATA_LINE), 10 a second, printed from integers to digits a narrow float cannot hold; bytes,
+        or a view of the survey's buffer, valid during the call only (the next block writes over it)."""
         self.board.serial_write(line)
 
     # ****** input ******

@@ -8,8 +8,7 @@ the data/raw events, the lines of the rotating flash log: flashlog.py).
     out.gap(missing)                 # acq.poll's on_gap
     out.status()                     # its part of `status`
 
-    sv = Survey(cfg, window, decim_rate_hz)
-    rec = sv.sample(sx, sy, sz, st, f)   # None, or a finished block (a tuple)
+    sv = Survey(cfg, window, decim_rate_hz); rec = sv.sample(sx, sy, sz, st, f)   # None, or a block
 
 A sample's way (the DRDY ring's reader calls Output.sample directly): the screen (screen.py)
 drops spikes and clipped samples; a slow sensor's lag is undone (shared/delag.py, two samples
@@ -24,13 +23,8 @@ averages |h_c| of every decimated sample -- rotation invariant -- and, separatel
 vector (integer sums). Averaging the vectors and taking |.| afterwards would shrink |B| by ~B
 (w T)^2/24 while the operator turns: 769 nT at 1 rev/s over 0.1 s (docs/simulator.md, smearing).
 
-Temperature compensation (docs/temperature.md): the calibration in force, with its temperature
-coefficients applied at the die temperature, is recomputed when the die moved by _TEMP_STEP_C
-(about 40 float operations). The coefficients hold a little beyond the temperatures they were
-measured at: a warning only _RANGE_MARGIN_C outside their range; applied linearly up to
-_EXTRAPOLATE_C outside it and held there beyond (a die reading far off, a fault or a hot spot,
-must not extrapolate the drift without end). Without coefficients, a warning when the die is
-temp_warn_c from the calibration's temperature.
+Temperature compensation (docs/temperature.md): the calibration in force at the die temperature
+(_compensate; how far its coefficients hold: the constants below), a warning beyond (_temperature_warning).
 """
 
 import json
@@ -44,12 +38,13 @@ from shared.delag import DELAY, Delag, configured_tau_s, tau_us
 from shared.fixedpoint import FRACTION_BITS, ExactCorrection
 
 # In C where deploy installed the board's .mpy (MicroPython; ValueError: one of another arch or
-# version): a sample's |h_c| and the block's sums (fitsums.survey, device/native/hc.h), and
-# Output.sample itself (drdy.Sample, device/native/drdy.c: the same calls, no Python frame)
+# version): a sample's |h_c| and the block's sums (fitsums.survey, device/native/hc.h), a block's
+# event line (fitsums.line, line.h), and Output.sample itself (drdy.Sample, device/native/drdy.c:
+# the same calls, no Python frame)
 try:
-    from fitsums import survey as _native_survey
+    from fitsums import line as _native_line, survey as _native_survey
 except (ImportError, ValueError):
-    _native_survey = None
+    _native_line = _native_survey = None
 try:
     from drdy import Sample as _NativeSample
 except (ImportError, ValueError):
@@ -64,10 +59,9 @@ _TEMP_STEP_C = 0.05
 # calibration's mean die reading): warn only this far outside their range
 _RANGE_MARGIN_C = 1.0
 _EXTRAPOLATE_C = 10.0     # and are applied at most this far outside it (held there beyond)
-# a block's texts, each one bytes format (the event lines protocol.py's; on an RP2040 a string
-# made costs ~15 k cycles, MicroPython looks it up among the interned ones, a bytes ~1.5 k); the
-# log line's
+# the log line, one bytes format (as protocol.py's event lines: a str made costs ~15 k cycles on an RP2040)
 _LOG = b"%d,%s%d.%03d,%s%d.%03d,%s%d.%03d,%d.%03d,%.2f\n"
+_LINE_BYTES = 320     # fitsums.line's buffer: a data event ~190 bytes, ~290 with the longest warning
 
 
 class Survey:
@@ -147,6 +141,7 @@ class Output:
         self.cal_temp_warn = False
         self._comp_temp = None
         self._want_f = False
+        self._line = None    # fitsums.line's buffer (a memoryview) while blocks go out
         # sample in C (native=False: the class's, the reference): an instance attribute, found
         # before the method (app.py binds it once; acq.poll's C calls it without a frame)
         if native and _NativeSample is not None:
@@ -156,9 +151,8 @@ class Output:
         c = self.cfg = cfg
         self.survey = Survey(c, c["window"], sample_hz)
         self.scale = (c["scale_x"], c["scale_y"], c["scale_z"])
-        # the screen and the de-lag kept, with what they hold and learnt, where nothing of theirs
-        # changed (`config set survey_hz`, as fluxcal capture starts): a new screen knows no
-        # hand's bends yet, and took a turning hand's reversal in its first samples for a spike
+        # the screen and the de-lag kept (what they hold and learnt) where none of theirs changed, as
+        # at `config set survey_hz`: a new screen knows no hand's bends, a reversal may look a spike
         chain = (self.scale, c["window"], c["spike_nt"], c["rate"], c["decim"], c["gain_x"], c["gain_y"],
                  c["gain_z"])
         if chain != self._chain:
@@ -198,6 +192,8 @@ class Output:
         if want and not self._want_f:
             self.survey.restart()   # the open block's samples carry no |h_c|: start a new one
         self._want_f = want
+        # fitsums.line's buffer while blocks go out, its 336 bytes back to the heap after (a finish wants them)
+        self._line = None if not want or _native_line is None else self._line or memoryview(bytearray(_LINE_BYTES))
         self._compensate(self.temp_c, True)
         self.respond()
 
@@ -333,15 +329,15 @@ class Output:
             return   # nothing goes out: no stream, no log
         t = self.board.ticks_ms()
         stream = self.stream
-        nan = temp != temp       # not a number (a fault): the formats' "%.2f" as "%s" of null
-        tv = b"null" if nan else temp
         if stream != "off":
+            tv = b"null" if temp != temp else b"%.2f" % temp     # not a number (a fault): null
             # the block's mean codes in hundredths from the integer sums: no float to box and print
-            c = parts3(hundredths(sx, d), hundredths(sy, d), hundredths(sz, d), 100)
+            c0, c1, c2 = hundredths(sx, d), hundredths(sy, d), hundredths(sz, d)
         if stream == "raw":
             # n: its last sample's block number (the screen holds one back, the de-lag DELAY more)
             seq = -1 if self.acq is None else (self.acq.last_block - 1 - (DELAY if self._delag_on else 0)) & 0x3FFFFFFF
-            self.proto.send_line((RAW_LINE.replace(b"%.2f", b"%s") if nan else RAW_LINE) % ((VERSION, t, seq) + c + (tv,)))
+            line = self._fill(RAW_LINE, (VERSION, t, seq, c0, c1, c2, tv))
+            self.proto.send_line(line or RAW_LINE % ((VERSION, t, seq) + parts3(c0, c1, c2, 100) + (tv,)))
             if self.recorder is None and (self.log is None or self.session is not None):
                 return
         # h_c and |h_c| in milli-nT, integers: printed to the last digit a narrow float cannot hold
@@ -356,17 +352,21 @@ class Output:
         # the mean |h_c| in milli-nT, rounded (halves up): fs is a big int on a 32-bit port, one
         # heap allocation an operation, so the fewest (not (2 fs + 2^8 n) // (2^9 n))
         f = (fs + (n << (FRACTION_BITS - 1))) // (n << FRACTION_BITS)
-        logging = self.log is not None and self.session is None
-        if stream == "corrected" or logging:
-            fp = parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000)
         if stream == "corrected":
-            # the whole line, one bytes format (protocol.DATA_LINE), written as it is
-            self.proto.send_line((DATA_LINE.replace(b"%.2f", b"%s") if nan else DATA_LINE) % ((VERSION, t, tv) + c + (
-                b"false" if cal is None else b"true", b"null" if msg is None else json.dumps(msg).encode()) + fp))
+            cal = b"false" if cal is None else b"true"
+            msg = b"null" if msg is None else json.dumps(msg).encode()
+            line = self._fill(DATA_LINE, (VERSION, t, tv, c0, c1, c2, cal, msg, b[0], b[1], b[2], f))
+            self.proto.send_line(line or DATA_LINE % ((VERSION, t, tv) + parts3(c0, c1, c2, 100) + (cal, msg) +
+                                                      parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000)))
         if self.recorder is not None:
             self.recorder.block(t, f)
-        if logging:
-            self.log.write(_LOG % ((t,) + fp + (temp,)))
+        if self.log is not None and self.session is None:
+            self.log.write(_LOG % ((t,) + parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000) + (temp,)))
+
+    def _fill(self, fmt, values):
+        """fitsums.line's line in the buffer (a view: nothing else allocated), or None: Python's `%`."""
+        n = None if self._line is None else _native_line(self._line, fmt, values)
+        return None if n is None else self._line[:n]
 
     def _temperature_warning(self, temp):
         """Whether the die's temperature makes the calibration in force doubtful (cal_temp_warn)

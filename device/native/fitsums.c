@@ -24,7 +24,11 @@
 //     fitsums.survey(words, sx, sy, sz, st)     # a sample into device/survey.py's block
 //     fitsums.correct(numbers, sx, sy, sz)      # ExactCorrection.correct's h_c, or None
 //
-// are the survey's exact |h_c|, block sums and h_c (hc.h).
+// are the survey's exact |h_c|, block sums and h_c (hc.h), and
+//
+//     fitsums.line(buf, template, values)       # a block's event line into buf, or None
+//
+// its event lines (line.h).
 
 #include "py/dynruntime.h"
 
@@ -113,6 +117,7 @@ static mp_obj_t add(size_t n_args, const mp_obj_t *args) {
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(add_obj, 4, 5, add);
 
 #include "hc.h"       // the survey's |h_c|, block sums and h_c: magnitude, survey, correct
+#include "line.h"     // the survey's event lines: line
 
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
     MP_DYNRUNTIME_INIT_ENTRY
@@ -120,6 +125,7 @@ mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *a
     mp_store_global(MP_QSTR_magnitude, MP_OBJ_FROM_PTR(&magnitude_obj));
     mp_store_global(MP_QSTR_survey, MP_OBJ_FROM_PTR(&survey_obj));
     mp_store_global(MP_QSTR_correct, MP_OBJ_FROM_PTR(&correct_obj));
+    mp_store_global(MP_QSTR_line, MP_OBJ_FROM_PTR(&line_obj));
     mp_store_global(MP_QSTR_SURVEY_LIMBS, MP_OBJ_NEW_SMALL_INT(SURVEY_LIMBS));
     mp_store_global(MP_QSTR_NUMBERS, MP_OBJ_NEW_SMALL_INT(NUMBERS));
     mp_store_global(MP_QSTR_WORDS, MP_OBJ_NEW_SMALL_INT(WORDS));

@@ -46,7 +46,7 @@ def run(case, scenario, native):
     cfg = defaults()
     cfg["log"] = False
     texts = []
-    o = Output(Board(), Line(lambda line: texts.append(line.decode())), native=native)
+    o = Output(Board(), Line(lambda line: texts.append(bytes(line).decode())), native=native)
     o.adc = Die(25.0)
     o.configure(cfg, cfg["rate"] / cfg["decim"])
     cal = Calibration.from_dict(case["cal"])

@@ -6,7 +6,8 @@
 # given) the folder of the fitsums.mpy to load; on the emulated Pico (no argv) /disk/job.json,
 # the modules and fitsums.mpy in /disk. Prints every data event line as sent (kept, they would
 # scatter over the heap between collections and leave no room for one long line); with a natmod folder, then "#native" or "#python": whether
-# fitsums.survey took the samples and fitsums.correct the blocks.
+# fitsums.survey took the samples, fitsums.correct the blocks and fitsums.line wrote lines (its
+# buffer there while the stream is on, not after).
 import json
 import sys
 
@@ -29,7 +30,15 @@ cfg = defaults()
 cfg["window"] = case["window"]
 cfg["decim"] = max(cfg["decim"], case["window"])
 cfg["log"] = False
-o = Output(Board(), Line(lambda line: print(line.decode(), end="")))
+written = [0]      # lines fitsums.line wrote: a view of the Output's buffer (Python's `%` makes bytes)
+
+
+def out(line):
+    written[0] += type(line) is memoryview
+    print(bytes(line).decode(), end="")
+
+
+o = Output(Board(), Line(out))
 o.adc = Die(case["temp"] if case["temp"] is not None else 25.0)
 o.configure(cfg, cfg["survey_hz"] * case["per_block"])
 o.screen = Passes()
@@ -40,4 +49,7 @@ for sx, sy, sz in case["sums"]:
     o.sample(sx, sy, sz, 0)
 if natmod:
     ex = o.exact_blk
-    print("#native" if o._words is not None and ex is not None and ex.path == "native" else "#python")
+    buffered = o._line is not None
+    o.set_stream("off")             # the line's buffer goes back to the heap
+    print("#native" if o._words is not None and ex is not None and ex.path == "native" and written[0] and buffered
+          and o._line is None else "#python")
