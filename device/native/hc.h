@@ -22,8 +22,9 @@
 // - h_i must satisfy |h_i| < 2^62 (else None): h_i^2 < 2^124, the sum of three < 2^126,
 //   its root < 2^63. |h_c| in 1/256 milli-nT is about 2^34 at 50,000 nT, so never near.
 // - the root is exact, digit by digit (no multiply, no divide: neither 64-bit division nor,
-//   on armv6m, 64-bit multiplication is linked into a native module); in one 64-bit remainder
-//   where the sum of squares is under 2^120 (always, for a field), else in 128-bit words.
+//   on armv6m, 64-bit multiplication is linked into a native module); its first 29 bits in
+//   32-bit words, the rest in one 64-bit remainder where the sum of squares is under 2^120
+//   (always, for a field), else in 128-bit words.
 // magnitude's result is a small int where it fits, else built from its words (mp_binary_op:
 // on a 32-bit port |h_c| of the Earth's field passes a small int's 2^30): four heap
 // allocations a call, which survey() spares the per-sample path (its sums stay in words).
@@ -36,18 +37,6 @@
 static inline int64_t number(const uint16_t *p) {
     uint32_t lo = p[0] | ((uint32_t)p[1] << 16), hi = p[2] | ((uint32_t)p[3] << 16);
     return (int64_t)(((uint64_t)hi << 32) | lo);
-}
-
-// q += v 2^(32 k) in an unsigned four-word sum (k <= 2; the sum stays under 2^126)
-static inline void add_at(uint32_t *q, uint64_t v, int k) {
-    uint64_t c = (uint64_t)q[k] + (uint32_t)v;
-    q[k] = (uint32_t)c;
-    c = (c >> 32) + q[k + 1] + (v >> 32);
-    q[k + 1] = (uint32_t)c;
-    for (k += 2; k < 4; k++) {
-        c = (c >> 32) + q[k];
-        q[k] = (uint32_t)c;
-    }
 }
 
 // floor(sqrt(q)) of q = qh 2^64 + ql < 2^126, digit by digit: `bit` walks the powers of 4
@@ -100,7 +89,6 @@ static mp_obj_t new_uint64(uint64_t r) {
 // bits so far) - root^2 <= 2 root, so with root < 2^60 rem << 2 stays under 2^63 and the
 // trial 2 root + 1 under 2^62: one 64-bit word each (the classic schoolbook root)
 static uint64_t isqrt120(const uint32_t *q) {
-    uint64_t root = 0, rem = 0;
     int w = 3;
     while (w > 0 && q[w] == 0) {
         w--;
@@ -109,6 +97,27 @@ static uint64_t isqrt120(const uint32_t *q) {
     while (s > 0 && (q[w] >> s) == 0) {     // the top word's leading zero pairs
         s -= 2;
     }
+    // the root's first 29 bits in single words: while root < 2^28, rem <= 2 root < 2^29 and
+    // rem << 2 | 3 < 2^31 (a 32-bit iteration is a fifth of a 64-bit one on a Cortex-M0+)
+    uint32_t root32 = 0, rem32 = 0;
+    for (; w >= 0; w--, s = 30) {
+        uint32_t word = q[w];
+        for (; s >= 0; s -= 2) {
+            if (root32 >> 28) {
+                goto wide;
+            }
+            rem32 = (rem32 << 2) | ((word >> s) & 3);
+            root32 <<= 1;
+            uint32_t trial = (root32 << 1) | 1;
+            if (rem32 >= trial) {
+                rem32 -= trial;
+                root32 |= 1;
+            }
+        }
+    }
+    return root32;
+wide:;
+    uint64_t root = root32, rem = rem32;
     for (; w >= 0; w--, s = 30) {
         uint32_t word = q[w];
         for (; s >= 0; s -= 2) {
@@ -177,13 +186,21 @@ static bool hc(const uint16_t *num, const int64_t *s, uint64_t *f) {
     q[0] = q[1] = q[2] = q[3] = 0;
     for (int i = 0; i < 3; i++) {
         uint64_t mh = (uint64_t)(h[i] < 0 ? -h[i] : h[i]);
-        // h^2 = m0^2 + 2 m0 m1 2^32 + m1^2 2^64, m1 < 2^30
+        // h^2 = a + 2 b 2^32 + c 2^64: a = m0^2, b = m0 m1 < 2^62, c = m1^2 < 2^60 (m1 < 2^30),
+        // its four words added to q with one carry chain
         uint32_t m0 = (uint32_t)mh, m1 = (uint32_t)(mh >> 32);
-        uint64_t x = mul32(m0, m1);
-        add_at(q, mul32(m0, m0), 0);
-        add_at(q, x, 1);
-        add_at(q, x, 1);
-        add_at(q, mul32(m1, m1), 2);
+        uint64_t a = mul32(m0, m0), b2 = mul32(m0, m1) << 1, c = mul32(m1, m1);
+        uint64_t t = (a >> 32) + (uint32_t)b2;
+        uint32_t w1 = (uint32_t)t;
+        t = (t >> 32) + (b2 >> 32) + (uint32_t)c;
+        uint32_t w2 = (uint32_t)t, w3 = (uint32_t)(t >> 32) + (uint32_t)(c >> 32);
+        t = (uint64_t)q[0] + (uint32_t)a;
+        q[0] = (uint32_t)t;
+        t = (t >> 32) + q[1] + w1;
+        q[1] = (uint32_t)t;
+        t = (t >> 32) + q[2] + w2;
+        q[2] = (uint32_t)t;
+        q[3] += (uint32_t)(t >> 32) + w3;
     }
     if (q[3] < ((uint32_t)1 << 24)) {
         *f = isqrt120(q);
