@@ -45,48 +45,47 @@ def _(_):
     _._TEXT_MAX; _._TICKS_HALF; _._TICKS_PERIOD; _._TIMER; _._TO_FLOAT; _._TWO53; _._UNLOAD; _._WATCHDOG_CTRL;
     _._WATCHDOG_REASON; _.__file__; _.__import__; _.__init__; _._across; _._add; _._add_packed; _._add_prior;
     _._add_slow; _._after; _._append; _._axes; _._axis_chains; _._b_frac; _._b_int; _._backoff; _._bad;
-    _._batch_time; _._between; _._bias; _._bias_spread; _._bias_sq; _._bits; _._blk; _._block; _._blocks; _._board;
-    _._bounds; _._bridge; _._bridged; _._buf; _._button; _._button_closed; _._c; _._cause; _._chain;
-    _._chance_point; _._changed; _._check_fields; _._cho_solve; _._cholesky; _._clipped; _._clk1; _._close;
-    _._closed; _._cmd; _._command; _._comp_temp; _._compensate; _._conclude; _._correct; _._count; _._counts;
-    _._cs; _._cubic; _._cuts; _._d; _._data; _._delag_on; _._delagged; _._diff; _._dk; _._down_at; _._dr; _._drain;
-    _._drdy; _._drdy_counter; _._drifted; _._dropped; _._due; _._e; _._eigh3; _._end; _._error_event_ms; _._exact;
+    _._batch_time; _._between; _._bias; _._bias_spread; _._bias_sq; _._bits; _._blocks; _._board; _._bounds;
+    _._bridge; _._bridged; _._buf; _._button; _._button_closed; _._c; _._cause; _._chain; _._chance_point;
+    _._changed; _._check_fields; _._cho_solve; _._cholesky; _._clipped; _._clk1; _._close; _._closed; _._cmd;
+    _._command; _._comp_temp; _._compensate; _._conclude; _._correct; _._count; _._counts; _._cs; _._cubic;
+    _._cuts; _._d; _._data; _._delag_on; _._delagged; _._diff; _._dk; _._down_at; _._dr; _._drain; _._drdy;
+    _._drdy_counter; _._drifted; _._dropped; _._due; _._e; _._eigh3; _._end; _._error_event_ms; _._exact;
     _._exists; _._f; _._f0; _._f1; _._f_unit; _._fail; _._fail_fast; _._fast; _._fast_mark; _._feed_from_timer;
     _._feeder; _._fill; _._final; _._first; _._fits; _._flat; _._frame_means; _._frames; _._g; _._gap; _._gap_cb;
     _._gc; _._h; _._handler; _._healthy; _._hi_q; _._hi_settled_q; _._hole; _._holes; _._house_idles; _._i;
     _._idle; _._in_row; _._isqrt; _._isr; _._j; _._joined; _._k; _._keys; _._known_key; _._lagfit; _._last;
     _._last_code; _._least; _._led; _._length; _._level; _._lim; _._line; _._lo_q; _._lo_settled_q; _._long_sent;
     _._machine; _._magnitude; _._make_counter; _._marks; _._max_ms; _._merge; _._monomials; _._n; _._name;
-    _._native; _._native_add; _._native_block; _._native_correct; _._native_line; _._native_magnitude;
-    _._native_survey; _._nearest; _._next; _._noise_gradient; _._normal_matrix; _._now_ns; _._nq; _._number;
-    _._numbers; _._on_gap; _._one; _._open_next; _._out; _._output; _._outputs; _._overlong; _._parabola_min;
-    _._pass_ms; _._pattern; _._pin; _._pins; _._poll; _._pressed; _._prog; _._q; _._queue; _._quiet; _._quiet_band;
-    _._quiet_from; _._quiet_ms; _._rate; _._raw; _._rbuf; _._rd; _._read; _._read_bytes; _._readinto; _._recent;
-    _._remove; _._replaced; _._reprobe_at; _._reset; _._resident; _._residuals; _._response_left; _._ring; _._rms;
-    _._room; _._round_div; _._rp2040; _._rreg; _._s; _._s1; _._s2; _._sample_cb; _._scalar; _._scaled; _._seen;
-    _._seen_mark; _._serve; _._service; _._set; _._settle; _._setup_pipeline; _._shape; _._shift; _._shifted;
-    _._short; _._sigma; _._since_flush; _._sm; _._solve; _._solve_ms; _._solve_spd; _._span; _._span_check;
-    _._sphere_gradients; _._spi_id; _._spike; _._sqrt_third; _._st; _._stands_out; _._start; _._start_counter;
-    _._store; _._sub; _._sums_at; _._sums_path; _._survey; _._sx; _._sy; _._sym_eigenvalues; _._sync; _._sz; _._t;
-    _._take; _._take_words; _._taus; _._taylor; _._temperature; _._temperature_warning; _._tick; _._unflushed;
-    _._unload; _._unpack; _._until; _._use_exact; _._v; _._values; _._variance_sum; _._vector; _._view;
-    _._vref_bit; _._w; _._want_f; _._wdt; _._why; _._widen; _._with_tempco; _._words; _._worse_than_current;
-    _._wreg; _._write; _._zeroed; _._zeros; _.a; _.a_frame; _.a_int; _.a_values; _.a_vectors; _.abort; _.above;
-    _.acc; _.acceptance; _.account_gap; _.acos; _.acq; _.acquisition; _.active; _.adc; _.adc_delagged;
-    _.adc_faults; _.adc_probe; _.adc_silent; _.add; _.add_exp; _.add_prior; _.add_temperature; _.add_to; _.added;
-    _.ads1292; _.all_finite; _.alloc_emergency_exception_buf; _.allowance; _.am; _.app; _.apply; _.apply_config;
-    _.array; _.asm_pio; _.at; _.at_temperature; _.attach; _.attach_drdy; _.auto; _.available; _.axis; _.b;
-    _.b_lines; _.back; _.bad_json; _.bad_scale; _.bad_value; _.badsync; _.base; _.basis; _.batch_length;
-    _.batch_means; _.batches; _.baudrate; _.begin; _.below; _.best; _.between; _.bias; _.bias_spread; _.bin;
-    _.binascii; _.bit_length; _.bits; _.blk; _.block; _.blocks; _.board; _.body; _.bool_auto; _.boot; _.boot_ms;
-    _.bootguard; _.bp; _.break_chain; _.bridge; _.buf; _.buffer; _.busio; _.busy; _.button; _.button_edge;
-    _.button_edges; _.by; _.c; _.cal; _.cal_kind; _.cal_now; _.cal_problem; _.cal_source; _.cal_temp_warn;
-    _.calibrated; _.calibration; _.calibration_flow; _.callback; _.cals; _.can_join; _.cancel; _.cancel_cal;
-    _.cancelled; _.cap; _.cell; _.cell_cap; _.cells; _.cells_per_edge; _.celsius; _.centre; _.centred; _.cfg;
-    _.cfgmod; _.chains; _.changed; _.check; _.check_calibration; _.check_exact; _.check_response; _.check_tempco;
-    _.chip; _.cho_solve; _.cholesky; _.clear_cal; _.cleared; _.cleared_at; _.clip; _.clip_axis; _.clipped; _.cls;
-    _.cmd; _.code; _.codes; _.coefficients; _.collect; _.collecting; _.command; _.commands; _.config;
-    _.config_problems; _.configure; _.configured_tau_s; _.console; _.context; _.correct; _.corrected;
+    _._native; _._native_add; _._native_correct; _._native_line; _._native_magnitude; _._native_survey; _._nearest;
+    _._next; _._noise_gradient; _._normal_matrix; _._now_ns; _._nq; _._number; _._on_gap; _._one; _._open_next;
+    _._out; _._output; _._outputs; _._overlong; _._parabola_min; _._pass_ms; _._pattern; _._pin; _._pins; _._poll;
+    _._pressed; _._prog; _._q; _._queue; _._quiet_from; _._quiet_ms; _._rate; _._raw; _._rbuf; _._rd; _._read;
+    _._read_bytes; _._readinto; _._recent; _._remove; _._replaced; _._reprobe_at; _._reset; _._resident;
+    _._residuals; _._response_left; _._ring; _._rms; _._room; _._round_div; _._rp2040; _._rreg; _._s; _._s1; _._s2;
+    _._sample_cb; _._scalar; _._scaled; _._seen; _._seen_mark; _._serve; _._service; _._set; _._settle;
+    _._setup_pipeline; _._shape; _._shift; _._shifted; _._short; _._sigma; _._since_flush; _._sm; _._solve;
+    _._solve_ms; _._solve_spd; _._span; _._span_check; _._sphere_gradients; _._spi_id; _._spike; _._sqrt_third;
+    _._st; _._stands_out; _._start; _._start_counter; _._store; _._sub; _._sums_at; _._sums_path; _._survey; _._sx;
+    _._sy; _._sym_eigenvalues; _._sync; _._sz; _._t; _._take; _._take_words; _._taus; _._taylor; _._temperature;
+    _._temperature_warning; _._tick; _._unflushed; _._unload; _._unpack; _._until; _._use_exact; _._v;
+    _._variance_sum; _._vector; _._view; _._vref_bit; _._w; _._want_f; _._wdt; _._why; _._widen; _._with_tempco;
+    _._words; _._worse_than_current; _._wreg; _._write; _._zeroed; _._zeros; _.a; _.a_frame; _.a_int; _.a_values;
+    _.a_vectors; _.abort; _.above; _.acc; _.acceptance; _.account_gap; _.acos; _.acq; _.acquisition; _.active;
+    _.adc; _.adc_delagged; _.adc_faults; _.adc_probe; _.adc_silent; _.add; _.add_exp; _.add_prior;
+    _.add_temperature; _.add_to; _.added; _.ads1292; _.all_finite; _.alloc_emergency_exception_buf; _.allowance;
+    _.am; _.app; _.apply; _.apply_config; _.array; _.asm_pio; _.at; _.at_temperature; _.attach; _.attach_drdy;
+    _.auto; _.available; _.axis; _.b; _.b_lines; _.back; _.bad_json; _.bad_scale; _.bad_value; _.badsync; _.base;
+    _.basis; _.batch_length; _.batch_means; _.batches; _.baudrate; _.begin; _.below; _.best; _.between; _.bias;
+    _.bias_spread; _.bin; _.binascii; _.bit_length; _.bits; _.blk; _.block; _.blocks; _.board; _.body; _.bool_auto;
+    _.boot; _.boot_ms; _.bootguard; _.bp; _.break_chain; _.bridge; _.buf; _.buffer; _.busio; _.busy; _.button;
+    _.button_edge; _.button_edges; _.by; _.c; _.cal; _.cal_kind; _.cal_now; _.cal_problem; _.cal_source;
+    _.cal_temp_warn; _.calibrated; _.calibration; _.calibration_flow; _.callback; _.cals; _.can_join; _.cancel;
+    _.cancel_cal; _.cancelled; _.cap; _.cell; _.cell_cap; _.cells; _.cells_per_edge; _.celsius; _.centre;
+    _.centred; _.cfg; _.cfgmod; _.chains; _.changed; _.check; _.check_calibration; _.check_exact; _.check_response;
+    _.check_tempco; _.chip; _.cho_solve; _.cholesky; _.clear_cal; _.cleared; _.cleared_at; _.clip; _.clip_axis;
+    _.clipped; _.cls; _.cmd; _.code; _.codes; _.coefficients; _.collect; _.collecting; _.command; _.commands;
+    _.config; _.config_problems; _.configure; _.configured_tau_s; _.console; _.context; _.correct; _.corrected;
     _.correlation_time; _.cos; _.count_drdy; _.counter; _.counts; _.cov; _.coverage; _.cpython; _.crash; _.crashed;
     _.crc; _.crc32; _.cross_check; _.cur; _.d; _.d1; _.d2; _.data; _.deadline_ms; _.debounce_ms; _.decim; _.decode;
     _.defaults; _.degrees; _.deinit; _.delag; _.delag_adc; _.delag_share; _.delag_us; _.delagc; _.delattr; _.den;
@@ -117,7 +116,7 @@ def _(_):
     _.m; _.machine; _.magnitude; _.main_loop; _.make_prior; _.mark; _.marks; _.math; _.matrix; _.matvec; _.max;
     _.max_cal_s; _.max_error; _.max_iter; _.max_rms_nt; _.mean; _.mean_centre; _.means; _.mem32; _.mem_free;
     _.memoryview; _.merge; _.message; _.meta; _.method; _.min; _.min_count; _.min_observability; _.min_samples;
-    _.mine; _.minimise; _.miso; _.missed; _.missing; _.mixed; _.mode; _.model; _.models; _.modules; _.moments;
+    _.mine; _.minimise; _.miso; _.missed; _.missing; _.mode; _.model; _.models; _.modules; _.moments;
     _.monotonic_ns; _.mosi; _.most; _.mov; _.mp; _.ms; _.msg; _.multiplier; _.n; _.n_cells; _.name; _.nan;
     _.native; _.native_numbers; _.nd; _.near; _.new; _.next_check_ms; _.nf; _.no_better_than; _.no_memory; _.nodes;
     _.noise_gradient; _.non_finite; _.normal_equations; _.normal_matrix; _.not_better; _.not_first_order; _.now;
@@ -163,11 +162,11 @@ def _(_):
     _['%02x']; _['%d\n%s\n']; _['%s.%s']; _['%s.%s: %s']; _['%s: %s']; _['%s[%d]']; _[', ']; _['-huge']; _['-inf'];
     _['.']; _['...']; _['.bak']; _['.frozen']; _['.json']; _['.tmp']; _['0.1.0']; _['1e300']; _['; ']; _['<5q'];
     _['<Ii']; _['<genexpr>']; _['<lambda>']; _['<listcomp>']; _['GP%d']; _['ads1292.py']; _['app.py'];
-    _['blocks.py']; _['boot.py']; _['boot.txt']; _['button.py']; _['cancel-cal']; _['choice:']; _['clear-cal'];
-    _['code.py']; _['config.py']; _['finish-cal']; _['gates.py']; _['get-cal']; _['hal.py']; _['health.py'];
-    _['keep-cal']; _['lagfit.py']; _['led.py']; _['log%d.csv']; _['main.py']; _['matrix[%d]']; _['not text'];
-    _['screen.py']; _['session.py']; _['set-cal']; _['shared.fit']; _['start-cal']; _['store.py']; _['survey.bin'];
-    _['survey.py']; _['{']; _['|'];
+    _['boot.py']; _['boot.txt']; _['button.py']; _['cancel-cal']; _['choice:']; _['clear-cal']; _['code.py'];
+    _['config.py']; _['finish-cal']; _['gates.py']; _['get-cal']; _['hal.py']; _['health.py']; _['keep-cal'];
+    _['lagfit.py']; _['led.py']; _['log%d.csv']; _['main.py']; _['matrix[%d]']; _['not text']; _['screen.py'];
+    _['session.py']; _['set-cal']; _['shared.fit']; _['start-cal']; _['store.py']; _['survey.bin']; _['survey.py'];
+    _['{']; _['|'];
 
 
 for _n in (
@@ -186,12 +185,11 @@ for _n in (
     getattr(_, _n, None)
 
 MODULES = (
-    'acceptance', 'acquisition', 'ads1292', 'app', 'blocks', 'bootguard', 'button', 'calibration_flow', 'commands',
-    'config', 'flashlog', 'gates', 'hal', 'hal_circuitpython', 'hal_micropython', 'health', 'lagfit', 'led',
-    'protocol', 'residual_stats', 'residuals', 'screen', 'session', 'session_modules', 'shared/__init__',
-    'shared/calibration', 'shared/codes', 'shared/coverage', 'shared/delag', 'shared/errors', 'shared/fit',
-    'shared/fixedpoint', 'shared/honest', 'shared/iteration', 'shared/linalg', 'shared/linalg_native',
-    'shared/moments', 'shared/predicted', 'shared/prior', 'shared/quadric', 'shared/quick', 'shared/response',
-    'shared/result', 'shared/solver', 'shared/start', 'shared/tausums', 'shared/tempco', 'store', 'survey',
-    'surveylog',
+    'acceptance', 'acquisition', 'ads1292', 'app', 'bootguard', 'button', 'calibration_flow', 'commands', 'config',
+    'flashlog', 'gates', 'hal', 'hal_circuitpython', 'hal_micropython', 'health', 'lagfit', 'led', 'protocol',
+    'residual_stats', 'residuals', 'screen', 'session', 'session_modules', 'shared/__init__', 'shared/calibration',
+    'shared/codes', 'shared/coverage', 'shared/delag', 'shared/errors', 'shared/fit', 'shared/fixedpoint',
+    'shared/honest', 'shared/iteration', 'shared/linalg', 'shared/linalg_native', 'shared/moments',
+    'shared/predicted', 'shared/prior', 'shared/quadric', 'shared/quick', 'shared/response', 'shared/result',
+    'shared/solver', 'shared/start', 'shared/tausums', 'shared/tempco', 'store', 'survey', 'surveylog',
 )

@@ -15,8 +15,8 @@ if options.runtime == "micropython":
     include("$(PORT_DIR)/boards/manifest.py")   # the port's own frozen modules stay
 
 # Every runtime: the application, the ADS1292 driver and the HAL contract.
-for name in ("acceptance", "acquisition", "ads1292", "app", "blocks", "bootguard", "button", "calibration_flow",
-             "commands", "config", "firmware_names", "flashlog", "gates", "hal", "health", "lagfit", "led", "protocol",
+for name in ("acceptance", "acquisition", "ads1292", "app", "bootguard", "button", "calibration_flow", "commands",
+             "config", "firmware_names", "flashlog", "gates", "hal", "health", "lagfit", "led", "protocol",
              "residual_stats", "residuals", "screen", "session", "session_modules", "store", "survey", "surveylog"):
     module(name + ".py", opt=3)
 

@@ -8,21 +8,29 @@ the data/raw events, the lines of the rotating flash log: flashlog.py).
     out.gap(missing)                 # acq.poll's on_gap
     out.status()                     # its part of `status`
 
+    sv = Survey(cfg, window, decim_rate_hz); rec = sv.sample(sx, sy, sz, st, f)   # None, or a block
+
 A sample's way (the DRDY ring's reader calls Output.sample directly): the screen (screen.py)
 drops spikes and clipped samples; a slow sensor's lag is undone (shared/delag.py, two samples
 later: after the screen, which a de-lagged spike spread over three samples would pass); a
 calibration in progress (`session`, set by calibration_flow.py) gets the good ones; |h_c| per
 sample, only when a block goes out (stream or log), is averaged over the block with the raw
-sums (blocks.py). A finished block gets the die temperature (one per block: it changes over
-seconds), is corrected, and goes out as a `data` or `raw` event and a log line.
+sums. A finished block gets the die temperature (one per block: it changes over seconds), is
+corrected, and goes out as a `data` or `raw` event and a log line.
+
+A block over 1/survey_hz (0.1 s at the default 10 Hz, the paper's moving average width, IV.C)
+averages |h_c| of every decimated sample -- rotation invariant -- and, separately, the raw
+vector (integer sums). Averaging the vectors and taking |.| afterwards would shrink |B| by ~B
+(w T)^2/24 while the operator turns: 769 nT at 1 rev/s over 0.1 s (docs/simulator.md, smearing).
 
 Temperature compensation (docs/temperature.md): the calibration in force at the die temperature
 (_compensate; how far its coefficients hold: the constants below), a warning beyond (_temperature_warning).
 """
 
 import json
+from array import array
+from struct import unpack_from
 
-from blocks import _HAS_F, _NUMBERS_AT, Survey
 from flashlog import RotatingLog
 from protocol import DATA_LINE, RAW_LINE, VERSION, hundredths, json_number, parts3
 from screen import Screen
@@ -31,16 +39,19 @@ from shared.fixedpoint import FRACTION_BITS, ExactCorrection
 
 # In C where deploy installed the board's .mpy (MicroPython; ValueError: one of another arch or
 # version): a sample's |h_c| and the block's sums (fitsums.survey, device/native/hc.h), a block's
-# numbers (fitsums.block, block.h) and event line (fitsums.line, line.h), and Output.sample itself
-# (drdy.Sample, device/native/drdy.c: the same calls, no Python frame)
+# event line (fitsums.line, line.h), and Output.sample itself (drdy.Sample, device/native/drdy.c:
+# the same calls, no Python frame)
 try:
-    from fitsums import block as _native_block, line as _native_line, survey as _native_survey
+    from fitsums import line as _native_line, survey as _native_survey
 except (ImportError, ValueError):
-    _native_block = _native_line = _native_survey = None
+    _native_line = _native_survey = None
 try:
     from drdy import Sample as _NativeSample
 except (ImportError, ValueError):
     _NativeSample = None
+# fitsums.survey's words (an array("H"), hc.h): five 64-bit sums (x, y, z, t, |h_c|) of four
+# limbs each, the samples the block still takes, 1 if |h_c| is summed (else 0), its numbers
+_LEFT, _HAS_F, _NUMBERS_AT = 20, 21, 22
 # re-apply the temperature coefficients when the die moved this much: at 20 ppm/C and
 # 1 nT/C a step of 0.05 nT at 48,000 nT, below the noise
 _TEMP_STEP_C = 0.05
@@ -51,6 +62,56 @@ _EXTRAPOLATE_C = 10.0     # and are applied at most this far outside it (held th
 # the log line, one bytes format (as protocol.py's event lines: a str made costs ~15 k cycles on an RP2040)
 _LOG = b"%d,%s%d.%03d,%s%d.%03d,%s%d.%03d,%d.%03d,%.2f\n"
 _LINE_BYTES = 320     # fitsums.line's buffer: a data event ~190 bytes, ~290 with the longest warning
+
+
+class Survey:
+    """The output blocks' sums: in C (fitsums.survey, Output.sample calls it) in `words` where it
+    loads (native=True), counting down words[_LEFT]; sample() is the pure-Python way (the reference,
+    and the C's fall-back for a sample past its words: its sums here); finish() adds the two."""
+
+    def __init__(self, cfg, window, sample_hz, native=True):
+        self.window = window
+        self.per_block = max(1, int(sample_hz / cfg["survey_hz"] + 0.5))
+        self.blocks = 0
+        # blocks under 2**16 samples: the C's 64-bit sums cannot overflow, LEFT is a limb (hc.h)
+        self.words = array("H", [0] * (_NUMBERS_AT + 64)) if native and _native_survey and self.per_block < 1 << 16 else None
+        self._zeros = array("H", bytes(2 * _LEFT))     # restart's: one slice store, not 20 (~10 k cycles)
+        self.restart()
+
+    def restart(self):
+        """Drop the open block (its samples were taken without |h_c|)."""
+        self._n = 0
+        self._sx = self._sy = self._sz = self._st = self._f = 0
+        w = self.words
+        if w is not None:
+            w[:_LEFT] = self._zeros
+            w[_LEFT] = self.per_block
+
+    def sample(self, sx, sy, sz, st, f):
+        """Accumulate; at the end of a block return its sums (x, y, z, t codes; f) and n."""
+        self._sx += sx
+        self._sy += sy
+        self._sz += sz
+        self._st += st
+        self._f += f
+        w = self.words
+        if w is None:
+            self._n += 1
+            return self.finish() if self._n >= self.per_block else None
+        w[_LEFT] -= 1
+        return None if w[_LEFT] else self.finish()
+
+    def finish(self):
+        """The full block's sums (x, y, z, t codes; f) and n, the next block opened."""
+        w = self.words
+        # the C's five 64-bit two's complements, low limb first (little-endian, as the boards and
+        # hc.h have them): one unpacking in C, small ints where they fit (x, y, z, t), instead of
+        # the limbs read and joined in bytecode (~36 k cycles a block on an RP2040, ~18 k so)
+        s = (0, 0, 0, 0, 0) if w is None else unpack_from("<5q", w)
+        s = (s[0] + self._sx, s[1] + self._sy, s[2] + self._sz, s[3] + self._st, s[4] + self._f, self.per_block)
+        self.blocks += 1
+        self.restart()
+        return s
 
 
 class Output:
@@ -81,9 +142,6 @@ class Output:
         self._comp_temp = None
         self._want_f = False
         self._line = None    # fitsums.line's buffer (a memoryview) while blocks go out
-        self._values = None  # and the data event's values (DATA_LINE's order; _numbers, fitsums.block)
-        self._blk = None     # exact_blk's numbers, n, d, restart where fitsums.block takes the blocks
-        self._quiet = (0, 0)   # temperatures with no warning (_quiet_band)
         # sample in C (native=False: the class's, the reference): an instance attribute, found
         # before the method (app.py binds it once; acq.poll's C calls it without a frame)
         if native and _NativeSample is not None:
@@ -136,7 +194,6 @@ class Output:
         self._want_f = want
         # fitsums.line's buffer while blocks go out, its 336 bytes back to the heap after (a finish wants them)
         self._line = None if not want or _native_line is None else self._line or memoryview(bytearray(_LINE_BYTES))
-        self._values = None if not want else self._values or [VERSION, 0, b"", 0, 0, 0, b"", b"", 0, 0, 0, 0]
         self._compensate(self.temp_c, True)
         self.respond()
 
@@ -181,7 +238,6 @@ class Output:
         elif not force:
             return
         self.cal_now = cal
-        self._quiet = self._quiet_band()
         # the correction in integers (shared/fixedpoint.py): the same digits on every float width
         w = self.cfg["window"]
         self.exact_w = ExactCorrection(self.cal, w, tau) if cal is not None else None
@@ -195,11 +251,6 @@ class Output:
             w[_HAS_F] = 0 if numbers is None else 1
             for i in range(64 if numbers is not None else 0):
                 w[_NUMBERS_AT + i] = numbers[i]
-        # a block's numbers in C where its |h_c| is summed there and it is corrected in integers: what
-        # fitsums.block takes (the words restarted there unless the temperature may move the numbers)
-        n = self.survey.per_block
-        self._blk = None if numbers is None or _native_block is None or self.exact_blk._native is None else (
-            self.exact_blk._native, n, n * self.cfg["window"], self.cal.tempco is None)
 
     # ****** per sample: the DRDY ring's reader calls these ******
     def gap(self, missing=0):
@@ -238,7 +289,7 @@ class Output:
         rz = None if rx is None else _native_survey(rx, ry.x, ry.y, ry.z, ry.t)
         if rz is None:         # no fitsums.survey, the float |h_c|, or past its words: in Python
             return self._survey(ry.x, ry.y, ry.z, ry.t)
-        return self._block() if rz else None
+        return self._output(self.survey.finish()) if rz else None
 
     def _dropped(self):
         """The screen dropped the sample: a clipped one counts in the session's `clipped`."""
@@ -263,104 +314,59 @@ class Output:
         if blk is not None:
             self._output(blk)
 
-    def _block(self):
-        """The open block complete in the C's words (sample(), drdy.Sample): its numbers by
-        fitsums.block where they fit (the words restarted there too, unless the temperature may
-        move the correction: _output), else from Survey.finish's sums."""
-        sv = self.survey    # (a frame of at most 11 words: more is a heap allocation a call, Output.sample)
-        st = None if self._blk is None or sv.mixed else _native_block(sv.words, self._blk, self._values)
-        if st is None:
-            return self._output(sv.finish())
-        self._output(None, st)
-
-    def _output(self, blk, st=0):
-        """A block out: Survey.finish's sums (blk, its numbers by _numbers), or None: fitsums.block's in
-        the values, st the t codes' sum; the die's temperature (one a block: it changes over seconds),
-        the calibration at it, the event (stream raw or corrected), the recording's |B|, the log line."""
-        sv = self.survey
-        d = sv.per_block * self.cfg["window"]
-        temp = self.temp_c = self.adc.temperature_c((st if blk is None else blk[3]) / d)
+    def _output(self, blk):
+        sx, sy, sz, st, fs, n = blk
+        d = n * self.cfg["window"]
+        temp = self.adc.temperature_c(st / d)
+        self.temp_c = temp
         if self.session is not None:
-            self.session.add_temperature(temp)
+            self.session.add_temperature(temp)   # one per block: the die changes over seconds
         if self.cal is not None and self.cal.tempco is not None:
-            ex = self.exact_blk
             self._compensate(temp)      # else nothing to do: no call (~7 k cycles a block)
-            if blk is None:     # the words kept: fitsums.block again where the correction moved
-                if ex is not self.exact_blk and (self._blk is None or _native_block(
-                        sv.words, self._blk, self._values) is None):
-                    blk = sv.finish()
-                else:
-                    sv.restart()
-        if blk is None:
-            sv.blocks += 1
-        else:
-            self._numbers(blk)
-        q = self._quiet
-        if q[0] < temp < q[1]:
-            msg = None
-            self.cal_temp_warn = False
-        else:
-            msg = self._temperature_warning(temp)
-        v = self._values
-        if v is None:
-            return
+        cal = self.cal_now
+        msg = self._temperature_warning(temp)
+        if not self._want_f:
+            return   # nothing goes out: no stream, no log
         t = self.board.ticks_ms()
         stream = self.stream
         if stream != "off":
             tv = b"null" if temp != temp else b"%.2f" % temp     # not a number (a fault): null
+            # the block's mean codes in hundredths from the integer sums: no float to box and print
+            c0, c1, c2 = hundredths(sx, d), hundredths(sy, d), hundredths(sz, d)
         if stream == "raw":
             # n: its last sample's block number (the screen holds one back, the de-lag DELAY more)
             seq = -1 if self.acq is None else (self.acq.last_block - 1 - (DELAY if self._delag_on else 0)) & 0x3FFFFFFF
-            line = self._fill(RAW_LINE, (VERSION, t, seq, v[3], v[4], v[5], tv))
-            self.proto.send_line(line or RAW_LINE % ((VERSION, t, seq) + parts3(v[3], v[4], v[5], 100) + (tv,)))
+            line = self._fill(RAW_LINE, (VERSION, t, seq, c0, c1, c2, tv))
+            self.proto.send_line(line or RAW_LINE % ((VERSION, t, seq) + parts3(c0, c1, c2, 100) + (tv,)))
             if self.recorder is None and (self.log is None or self.session is not None):
                 return
-        if stream == "corrected":
-            v[1], v[2] = t, tv
-            v[6] = b"false" if self.cal_now is None else b"true"
-            v[7] = b"null" if msg is None else json.dumps(msg).encode()
-            n = None if self._line is None else _native_line(self._line, DATA_LINE, v)   # (_fill's, no call)
-            self.proto.send_line(self._line[:n] if n is not None else DATA_LINE % (
-                (VERSION, t, tv) + parts3(v[3], v[4], v[5], 100) + (v[6], v[7]) + parts3(v[8], v[9], v[10], 1000) +
-                divmod(v[11], 1000)))
-        if self.recorder is not None:
-            self.recorder.block(t, v[11])
-        if self.log is not None and self.session is None:
-            self.log.write(_LOG % ((t,) + parts3(v[8], v[9], v[10], 1000) + divmod(v[11], 1000) + (temp,)))
-
-    def _numbers(self, blk):
-        """fitsums.block's reference: a block's mean codes in hundredths, h_c and the mean |h_c| in milli-nT,
-        integers to the last digit a narrow float cannot hold, into the data event's values (DATA_LINE's)."""
-        v = self._values
-        if v is None:
-            return      # nothing goes out: no stream, no log
-        sx, sy, sz, st, fs, n = blk
-        d = n * self.cfg["window"]
-        v[3], v[4], v[5] = hundredths(sx, d), hundredths(sy, d), hundredths(sz, d)
+        # h_c and |h_c| in milli-nT, integers: printed to the last digit a narrow float cannot hold
         ex = self.exact_blk
+        if ex is not None and ex.divisor != d:
+            ex = self.exact_blk = ExactCorrection(self.cal, d, ex.tau)
         if ex is not None:
-            v[8], v[9], v[10] = ex.correct(sx, sy, sz)
+            b = ex.correct(sx, sy, sz)
         else:
             k = self.scale
-            v[8], v[9], v[10] = round(sx / d * k[0] * 1000), round(sy / d * k[1] * 1000), round(sz / d * k[2] * 1000)
-        # the mean |h_c| rounded (halves up): fs is a big int on a 32-bit port, one heap allocation
-        # an operation, so the fewest (not (2 fs + 2^8 n) // (2^9 n))
-        v[11] = (fs + (n << (FRACTION_BITS - 1))) // (n << FRACTION_BITS)
+            b = (round(sx / d * k[0] * 1000), round(sy / d * k[1] * 1000), round(sz / d * k[2] * 1000))
+        # the mean |h_c| in milli-nT, rounded (halves up): fs is a big int on a 32-bit port, one
+        # heap allocation an operation, so the fewest (not (2 fs + 2^8 n) // (2^9 n))
+        f = (fs + (n << (FRACTION_BITS - 1))) // (n << FRACTION_BITS)
+        if stream == "corrected":
+            cal = b"false" if cal is None else b"true"
+            msg = b"null" if msg is None else json.dumps(msg).encode()
+            line = self._fill(DATA_LINE, (VERSION, t, tv, c0, c1, c2, cal, msg, b[0], b[1], b[2], f))
+            self.proto.send_line(line or DATA_LINE % ((VERSION, t, tv) + parts3(c0, c1, c2, 100) + (cal, msg) +
+                                                      parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000)))
+        if self.recorder is not None:
+            self.recorder.block(t, f)
+        if self.log is not None and self.session is None:
+            self.log.write(_LOG % ((t,) + parts3(b[0], b[1], b[2], 1000) + divmod(f, 1000) + (temp,)))
 
     def _fill(self, fmt, values):
         """fitsums.line's line in the buffer (a view: nothing else allocated), or None: Python's `%`."""
         n = None if self._line is None else _native_line(self._line, fmt, values)
         return None if n is None else self._line[:n]
-
-    def _quiet_band(self):
-        """The temperatures _temperature_warning passes, a thousandth inside (it decides the edges): no call a block."""
-        cal = self.cal_now
-        if cal is not None and self.cal.tempco is not None:
-            lo, hi = self.cal.tempco["range_c"]
-            return (lo - _RANGE_MARGIN_C + 1e-3, hi + _RANGE_MARGIN_C - 1e-3)
-        t = None if cal is None else cal.meta.get("temperature_c")
-        w = self.cfg["temp_warn_c"]
-        return (-1e30, 1e30) if t is None else (t - w + 1e-3, t + w - 1e-3)
 
     def _temperature_warning(self, temp):
         """Whether the die's temperature makes the calibration in force doubtful (cal_temp_warn)

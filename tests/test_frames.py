@@ -32,9 +32,6 @@ PER_PASS = {
     "health.py": ["AdcSupervisor.check"],
     "bootguard.py": ["Guard.passed"],
     "calibration_flow.py": ["CalibrationFlow.tick"],
-    # and per sample (drdy.Sample calls these; Output.sample is its reference) and per block: a
-    # block's call of fitsums.block at 12 words had the frozen firmware 1.2 % busier in survey
-    "survey.py": ["Output.sample", "Output.gap", "Output._block"],
 }
 
 

@@ -1,4 +1,4 @@
-"""device/blocks.py's block: Survey.finish reads the C's block sums (fitsums.survey's words: five 64-bit
+"""device/survey.py's block: Survey.finish reads the C's block sums (fitsums.survey's words: five 64-bit
 two's complements of four 16-bit limbs, least significant first) in one struct unpacking ("<5q"):
 it must give the integer the general formula gives at and across every edge (a small int's,
 2**46, the 64-bit ends), on CPython and on every interpreter."""
@@ -13,7 +13,6 @@ import pytest
 from desktop.firmware.files import import_device
 from tests.interpreters import INTERPRETERS, need
 
-blocks = import_device("blocks")
 survey = import_device("survey")
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -36,12 +35,12 @@ def _blocks():
 @pytest.mark.parametrize("python_sums", [0, 5, -(1 << 40)])
 def test_finish_reads_every_64_bit_sum_as_the_formula_does(python_sums):
     cfg = {"survey_hz": 10}
-    sv = blocks.Survey(cfg, 2, 100, native=False)
+    sv = survey.Survey(cfg, 2, 100, native=False)
     for values in _blocks():
         sv.words = array("H", [0] * 86)
         for i, v in enumerate(values):
             sv.words[4 * i:4 * i + 4] = array("H", _limbs(v))
-        sv.words[blocks._LEFT] = 0
+        sv.words[survey._LEFT] = 0
         sv._sx = sv._sy = sv._sz = sv._st = sv._f = python_sums
         got = sv.finish()
         assert got == tuple(v + python_sums for v in values) + (sv.per_block,), values

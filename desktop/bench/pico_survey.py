@@ -10,9 +10,8 @@ own mpy-cross: emulated time per decimated sample from the DRDY ring (Acquisitio
 a call, into Output.sample with the firmware's screen and de-lag: the whole per-sample path),
 through Output.sample alone (block outputs included; after a collection, then with small live
 objects filling the heap to the firmware's free after boot), per |h_c| alone, per block output
-alone as the sample path makes it from a block complete in the C's words (Output._block, a
-tree before it finish() and _output; to the stand-in line, then through the firmware's Protocol
-to a port that takes the bytes), per block's sums alone (Survey.finish); x 125 gives cycles (125 MHz). The
+alone (to the stand-in line, then through the firmware's Protocol to a port that takes the
+bytes), per block's sums alone (Survey.finish); x 125 gives cycles (125 MHz). The
 stand-ins (serial line, screen, die) cost a little of their own; the same in both trees.
 Then device/screen.py's Screen.push alone on the same spin with a flipped bit in one
 sample of 40 (the default spike_nt and scale), the loop's own cost taken off: after a
@@ -43,7 +42,7 @@ from desktop.sim.instrument import realistic_instrument
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "micropython-scripts", "pico_survey.py")
 STAND_INS = os.path.join(os.path.dirname(SCRIPT), "survey_stand_ins.py")
 MHZ = 125
-DEVICE = ("survey", "blocks", "flashlog", "protocol", "screen", "store", "config", "acquisition")   # those a tree has
+DEVICE = ("survey", "flashlog", "protocol", "screen", "store", "config", "acquisition")   # those a tree has
 
 
 def _disk(folder, source, job, script=SCRIPT):
@@ -54,7 +53,7 @@ def _disk(folder, source, job, script=SCRIPT):
     pairs = [(os.path.join(source, "shared", n), os.path.join("shared", n))
              for n in sorted(os.listdir(os.path.join(source, "shared"))) if n.endswith(".py")]
     pairs += [(os.path.join(source, "device", n + ".py"), n + ".py") for n in DEVICE
-              if os.path.exists(os.path.join(source, "device", n + ".py"))]   # flashlog.py: from 4fef6d7, blocks.py later
+              if os.path.exists(os.path.join(source, "device", n + ".py"))]   # flashlog.py: from 4fef6d7
     pairs += [(script, "pico_survey.py"), (STAND_INS, "survey_stand_ins.py")]
     for src, rel in pairs:
         subprocess.run([cross, "-o", os.path.join(folder, rel[:-3] + ".mpy"), src], check=True)
@@ -108,7 +107,7 @@ def main(argv=None):
                                 "the firmware's screen and de-lag; block outputs included)"),
                        ("per_sample", "per decimated sample (Output.sample, block outputs included)"),
                        ("per_sample_full", "the same, small live objects filling the heap to 85 KB free (as after boot)"),
-                       ("magnitude", "|h_c| alone"), ("block", "a block's output alone, from the C's words (its numbers, the event)"),
+                       ("magnitude", "|h_c| alone"), ("block", "a block's output alone (correct, format the event)"),
                        ("block_protocol", "the same through the firmware's Protocol to the serial port"),
                        ("finish", "a block's sums alone (Survey.finish, from the C's words)")):
         if got.get(key) is not None:

@@ -377,7 +377,8 @@ static mp_obj_t sample_call(mp_obj_t self_in, size_t n_args, size_t n_kw, const 
     if (!mp_obj_is_true(done)) {
         return mp_const_none;
     }
-    return call_attr(out, MP_QSTR__block, 0, NULL);
+    mp_obj_t blk = call_attr(mp_load_attr(out, MP_QSTR_survey), MP_QSTR_finish, 0, NULL);
+    return call_attr(out, MP_QSTR__output, 1, &blk);
 }
 
 static void make_type(mp_obj_full_type_t *type, qstr name, void *make_new, void *call) {

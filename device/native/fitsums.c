@@ -24,11 +24,7 @@
 //     fitsums.survey(words, sx, sy, sz, st)     # a sample into device/survey.py's block
 //     fitsums.correct(numbers, sx, sy, sz)      # ExactCorrection.correct's h_c, or None
 //
-// are the survey's exact |h_c|, block sums and h_c (hc.h),
-//
-//     fitsums.block(words, (numbers, n, d, restart), values)   # a block's numbers into values
-//
-// a block's numbers from the sums (block.h), and
+// are the survey's exact |h_c|, block sums and h_c (hc.h), and
 //
 //     fitsums.line(buf, template, values)       # a block's event line into buf, or None
 //
@@ -121,7 +117,6 @@ static mp_obj_t add(size_t n_args, const mp_obj_t *args) {
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(add_obj, 4, 5, add);
 
 #include "hc.h"       // the survey's |h_c|, block sums and h_c: magnitude, survey, correct
-#include "block.h"    // a survey block's numbers: block
 #include "line.h"     // the survey's event lines: line
 
 mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *args) {
@@ -130,7 +125,6 @@ mp_obj_t mpy_init(mp_obj_fun_bc_t *self, size_t n_args, size_t n_kw, mp_obj_t *a
     mp_store_global(MP_QSTR_magnitude, MP_OBJ_FROM_PTR(&magnitude_obj));
     mp_store_global(MP_QSTR_survey, MP_OBJ_FROM_PTR(&survey_obj));
     mp_store_global(MP_QSTR_correct, MP_OBJ_FROM_PTR(&correct_obj));
-    mp_store_global(MP_QSTR_block, MP_OBJ_FROM_PTR(&block_obj));
     mp_store_global(MP_QSTR_line, MP_OBJ_FROM_PTR(&line_obj));
     mp_store_global(MP_QSTR_SURVEY_LIMBS, MP_OBJ_NEW_SMALL_INT(SURVEY_LIMBS));
     mp_store_global(MP_QSTR_NUMBERS, MP_OBJ_NEW_SMALL_INT(NUMBERS));

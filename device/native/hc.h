@@ -295,38 +295,23 @@ static mp_obj_t survey(size_t n_args, const mp_obj_t *args) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(survey_obj, 5, 5, survey);
 
-// h_c in milli-nT as ExactCorrection.correct rounds it ((h + 2^7) >> 8), each under a small int's
-// 2^30 (every port's): false where a sum (|s| < SUM_LIMIT), an h_i or a result is past the words
-static bool rounded(const uint16_t *num, const int64_t *s, mp_int_t *v) {
-    int64_t h[3];
-    for (int i = 0; i < 3; i++) {
-        if (s[i] <= -SUM_LIMIT || s[i] >= SUM_LIMIT) {
-            return false;
-        }
-    }
-    if (!axes(num, s, h)) {
-        return false;
-    }
-    for (int i = 0; i < 3; i++) {
-        int64_t r = (h[i] + 128) >> 8;     // |h| < 2^62: no overflow; >> of a negative: arithmetic in gcc
-        if (r >= ((int64_t)1 << 30) || r < -((int64_t)1 << 30)) {
-            return false;
-        }
-        v[i] = (mp_int_t)r;
-    }
-    return true;
-}
-
-// correct(numbers, sx, sy, sz): ExactCorrection.correct's h_c in milli-nT, rounded, as a tuple of
-// small ints, or None where a sum, an h_i or a result is past the words
+// correct(numbers, sx, sy, sz): ExactCorrection.correct's h_c in milli-nT, rounded
+// ((h + 2^7) >> 8), as a tuple of small ints (|v| < 2^30 on every port), or None where a sum,
+// an h_i or a result is past the words
 static mp_obj_t correct(size_t n_args, const mp_obj_t *args) {
     const uint16_t *num = limbs(args[0]);
-    int64_t s[3];
-    mp_int_t v[3];
-    if (!sums(args + 1, 3, s) || !rounded(num, s, v)) {
+    int64_t s[3], h[3];
+    if (!sums(args + 1, 3, s) || !axes(num, s, h)) {
         return mp_const_none;
     }
-    mp_obj_t out[3] = {MP_OBJ_NEW_SMALL_INT(v[0]), MP_OBJ_NEW_SMALL_INT(v[1]), MP_OBJ_NEW_SMALL_INT(v[2])};
+    mp_obj_t out[3];
+    for (int i = 0; i < 3; i++) {
+        int64_t v = (h[i] + 128) >> 8;     // |h| < 2^62: no overflow; >> of a negative: arithmetic in gcc
+        if (v >= ((int64_t)1 << 30) || v < -((int64_t)1 << 30)) {
+            return mp_const_none;
+        }
+        out[i] = MP_OBJ_NEW_SMALL_INT((mp_int_t)v);
+    }
     return mp_obj_new_tuple(3, out);
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(correct_obj, 4, 4, correct);

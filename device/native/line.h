@@ -1,13 +1,11 @@
 #include "py/objtuple.h"
-#include "py/objlist.h"
 
 // line.h: the survey's event lines written into a buffer the caller owns (fitsums.line; included
 // by fitsums.c), from the bytes formats Python fills with `%` (device/protocol.py RAW_LINE, DATA_LINE):
 //
 //     n = fitsums.line(buf, fmt, values)   # bytes written into the bytearray buf, or None
 //
-// fmt's conversions, each taking the next of `values` (a tuple, or a list: the data event's, which
-// block.h fills):
+// fmt's conversions, each taking the next of the tuple `values`:
 //     %d            an int                                  -12
 //     %s            bytes, as they are                      true
 //     %s%d.%0Nd     one int of 1/10^N units (N 1-9)         -0.05 from -5, N 2
@@ -73,22 +71,13 @@ static mp_obj_t line(size_t n_args, const mp_obj_t *args) {
     mp_buffer_info_t out, fmt;
     mp_get_buffer_raise(args[0], &out, MP_BUFFER_WRITE);
     const mp_obj_type_t *bytes_type = &mp_type_bytes;
-    const mp_obj_type_t *type = mp_obj_get_type(args[2]);
-    if (mp_obj_get_type(args[1]) != bytes_type || (type != &mp_type_tuple && type != &mp_type_list)) {
+    if (mp_obj_get_type(args[1]) != bytes_type || mp_obj_get_type(args[2]) != &mp_type_tuple) {
         return mp_const_none;
     }
     mp_get_buffer_raise(args[1], &fmt, MP_BUFFER_READ);
-    size_t n_values, used = 0;
-    const mp_obj_t *values;
-    if (type == &mp_type_tuple) {
-        mp_obj_tuple_t *tuple = MP_OBJ_TO_PTR(args[2]);
-        n_values = tuple->len;
-        values = tuple->items;
-    } else {
-        mp_obj_list_t *list = MP_OBJ_TO_PTR(args[2]);
-        n_values = list->len;
-        values = list->items;
-    }
+    mp_obj_tuple_t *tuple = MP_OBJ_TO_PTR(args[2]);
+    size_t n_values = tuple->len, used = 0;
+    const mp_obj_t *values = tuple->items;
     const byte *t = fmt.buf, *t_end = t + fmt.len;
     byte *p = out.buf, *end = p + out.len;
     while (t < t_end) {

@@ -5,10 +5,9 @@
 # "temp": C or null, "sums": [[sx, sy, sz], ...]}, argv[2] the repository root, argv[3] (if
 # given) the folder of the fitsums.mpy to load; on the emulated Pico (no argv) /disk/job.json,
 # the modules and fitsums.mpy in /disk. Prints every data event line as sent (kept, they would
-# scatter over the heap between collections and leave no room for one long line); with a natmod
-# folder, then "#native N" (N: the blocks fitsums.block made) or "#python": whether
-# fitsums.survey took the samples, fitsums.correct and fitsums.block the blocks and fitsums.line
-# wrote lines (its buffer there while the stream is on, not after).
+# scatter over the heap between collections and leave no room for one long line); with a natmod folder, then "#native" or "#python": whether
+# fitsums.survey took the samples, fitsums.correct the blocks and fitsums.line wrote lines (its
+# buffer there while the stream is on, not after).
 import json
 import sys
 
@@ -39,16 +38,6 @@ def out(line):
     print(bytes(line).decode(), end="")
 
 
-import survey  # noqa: E402
-
-blocks_in_c = [0]        # blocks whose numbers fitsums.block made (its result not None)
-if survey._native_block is not None:
-    def _counted(*args, _block=survey._native_block):
-        st = _block(*args)
-        blocks_in_c[0] += st is not None
-        return st
-    survey._native_block = _counted
-
 o = Output(Board(), Line(out))
 o.adc = Die(case["temp"] if case["temp"] is not None else 25.0)
 o.configure(cfg, cfg["survey_hz"] * case["per_block"])
@@ -62,5 +51,5 @@ if natmod:
     ex = o.exact_blk
     buffered = o._line is not None
     o.set_stream("off")             # the line's buffer goes back to the heap
-    print("#native %d" % blocks_in_c[0] if o._words is not None and ex is not None and ex.path == "native" and
-          written[0] and buffered and o._line is None else "#python")
+    print("#native" if o._words is not None and ex is not None and ex.path == "native" and written[0] and buffered
+          and o._line is None else "#python")

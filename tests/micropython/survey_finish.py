@@ -1,4 +1,4 @@
-# Runs under each interpreter (tests/test_survey_finish.py): device/blocks.py's Survey.finish on
+# Runs under each interpreter (tests/test_survey_finish.py): device/survey.py's Survey.finish on
 # the C's block sums (fitsums.survey's words, each sum four 16-bit limbs, least significant
 # first) as given, with its own Python sums set to argv[4]. argv[1] the repository root,
 # argv[2] a JSON file of [[20 limbs], ...]; prints the block finish returns for each, a JSON line.
@@ -8,7 +8,7 @@ from array import array
 
 for folder in (sys.argv[1] + "/device", sys.argv[1]):
     sys.path.insert(0, folder)
-from blocks import _LEFT, Survey  # noqa: E402
+from survey import _LEFT, Survey  # noqa: E402
 
 with open(sys.argv[2]) as fh:
     cases = json.load(fh)

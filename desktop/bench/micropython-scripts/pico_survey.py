@@ -56,10 +56,23 @@ def main():
     for s in sums:
         corr.magnitude(s[0], s[1], s[2])
     magnitude = time.ticks_diff(time.ticks_us(), t0) / len(sums)
-    block = _block(o, sums)
+    blk = None
+    while blk is None:
+        s = sums[0]
+        f = corr.magnitude(s[0], s[1], s[2])
+        blk = o.survey.sample(s[0], s[1], s[2], 0, f)
+    gc.collect()
+    t0 = time.ticks_us()
+    for _ in range(100):
+        o._output(blk)
+    block = time.ticks_diff(time.ticks_us(), t0) / 100
     # the same through the firmware's Protocol (protocol.py) to a port that takes the bytes
     line, o.proto = o.proto, Protocol(Board(), {}, None)
-    block_protocol = _block(o, sums)
+    gc.collect()
+    t0 = time.ticks_us()
+    for _ in range(100):
+        o._output(blk)
+    block_protocol = time.ticks_diff(time.ticks_us(), t0) / 100
     o.proto = line
     finish = _finish(o.survey)
     path = "integers" if hasattr(o, "exact_w") else "floats"
@@ -76,41 +89,6 @@ def main():
                 "block_protocol": block_protocol, "finish": finish, "path": path,
                 "magnitude_path": getattr(corr, "path", "python")})
     print(json.dumps(out))
-
-
-def _block(o, sums):
-    """us per block output as the firmware's sample path makes it, from a block complete in the C's
-    words (Output._block: its numbers in fitsums.block where it loads; a tree before it: finish()
-    and _output), the words refilled before each, the refill's own cost taken off; without the
-    words (no fitsums.survey), Output._output of one block's sums."""
-    sv = o.survey
-    w = sv.words
-    if w is None:
-        blk = None
-        while blk is None:
-            s = sums[0]
-            blk = sv.sample(s[0], s[1], s[2], 0, o.exact_w.magnitude(s[0], s[1], s[2]))
-        gc.collect()
-        t0 = time.ticks_us()
-        for _ in range(100):
-            o._output(blk)
-        return time.ticks_diff(time.ticks_us(), t0) / 100
-    import survey
-    k = 0                       # a block complete in the words, as fitsums.survey leaves it
-    while not survey._native_survey(w, sums[k][0], sums[k][1], sums[k][2], 0):
-        k += 1
-    saved = w[:21]
-    out = getattr(o, "_block", None) or (lambda: o._output(sv.finish()))
-    us = []
-    for call in (False, True):
-        gc.collect()
-        t0 = time.ticks_us()
-        for _ in range(100):
-            w[:21] = saved
-            if call:
-                out()
-        us.append(time.ticks_diff(time.ticks_us(), t0) / 100)
-    return us[1] - us[0]
 
 
 def _finish(sv):
