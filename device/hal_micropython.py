@@ -326,14 +326,15 @@ class Board(hal.Board):
 
         stdin tells only whether a byte is waiting, and a read of more than is there blocks,
         so one byte at a time, while poll says one is waiting: ipoll and readinto allocate
-        nothing per byte (poll() and read(1) allocated two objects each)."""
-        if self._poll is None:
-            return None
-        ipoll = self._poll.ipoll
-        for _ready in ipoll(0):
-            break
-        else:
-            return None         # nothing waiting: the usual pass
+        nothing per byte (poll() and read(1) allocated two objects each). The usual pass, nothing
+        waiting, stays within the 11 words of frame MicroPython keeps off the heap (app.py, Frames)."""
+        p = self._poll
+        if p is not None:
+            for _ready in p.ipoll(0):
+                return self._read_waiting(p.ipoll)
+        return None
+
+    def _read_waiting(self, ipoll):
         rd = sys.stdin.buffer.readinto
         one = self._one
         buf = self._rbuf

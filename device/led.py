@@ -44,10 +44,7 @@ class Led:
         b = self.board
         self._pattern = pattern
         self._start = b.ticks_ms()
-        total = 0
-        for d in pattern:
-            total += d
-        self._until = (ms if ms is not None else total) or 1
+        self._until = (ms if ms is not None else sum(pattern)) or 1
         self._next = -1
 
     def due_ms(self, most):
@@ -57,21 +54,23 @@ class Led:
         return most if left > most else (left if left > 1 else 1)
 
     def update(self):
-        # every main-loop pass: return at once until the next change is due
+        # every main-loop pass: return at once until the next change is due. The change is a
+        # method of its own so that this frame stays within the 11 words MicroPython keeps off the
+        # heap (app.py, Frames): the pass's call allocates nothing
         b = self.board
         now = b.ticks_ms()
         age = b.ticks_diff(now, self._start)
-        if age < self._next:
-            return
+        if age >= self._next:
+            self._change(now, age)
+
+    def _change(self, now, age):
         if self._until is not None and age >= self._until:
             self._until = None
             self._pattern = self.base
             self._start = now
             age = 0
         p = self._pattern
-        period = 0
-        for d in p:
-            period += d
+        period = sum(p)
         t = age % period if period else 0
         on = True
         left = 0
@@ -85,4 +84,4 @@ class Led:
         if self._until is not None and self._until < nxt:
             nxt = self._until
         self._next = nxt
-        b.led(on)
+        self.board.led(on)

@@ -21,15 +21,16 @@ from tests.interpreters import need
 
 DEVICE = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, "device")
 STACK_BYTES = 11 * 4      # VM_MAX_STATE_ON_STACK on a 32-bit port
-# module: the functions run every main-loop pass (app.py run/step), by qualified name. Over 11
-# words today, not listed: Protocol.poll (13), hal_micropython's Board.serial_read (12),
-# Led.update (17), Health.check (18): a split of each into a small usual path and a method for the
-# rest costs 32-80 B of the 32-bit heap (python -m desktop.bench.heap) for ~1 k cycles a pass
+# module: the functions run every main-loop pass (app.py run/step), by qualified name; each of
+# Protocol.poll, Board.serial_read, Led.update and Health.check keeps its usual path (nothing
+# waiting, nothing due) in a frame of its own and the rest in a method it calls
 PER_PASS = {
     "app.py": ["App.step", "App.wait", "App._pass_ms"],
     "button.py": ["Button.poll", "Button.due_ms"],
-    "led.py": ["Led.due_ms"],
-    "health.py": ["AdcSupervisor.check"],
+    "led.py": ["Led.due_ms", "Led.update"],
+    "health.py": ["AdcSupervisor.check", "Health.check"],
+    "protocol.py": ["Protocol.poll"],
+    "hal_micropython.py": ["Board.serial_read"],
     "bootguard.py": ["Guard.passed"],
     "calibration_flow.py": ["CalibrationFlow.tick"],
 }
