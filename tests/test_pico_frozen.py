@@ -14,11 +14,11 @@ import os
 import shutil
 import subprocess
 import sys
-import time
 
 import pytest
 
 from tests.interpreters import need
+from tests.port_read import read_until
 
 MPREMOTE = [sys.executable, "-m", "mpremote"]
 HEAP_KB = 100
@@ -35,17 +35,6 @@ def mpremote(port, *args, timeout=300):
     r = subprocess.run(MPREMOTE + ["connect", port] + list(args), capture_output=True, text=True, timeout=timeout)
     assert r.returncode == 0, r.stdout + r.stderr
     return r.stdout
-
-
-def read_until(port, marker, timeout):
-    """What the board sends on `port` from now until `marker` (or `timeout` seconds of emulation)."""
-    import serial
-    said = b""
-    deadline = time.monotonic() + timeout
-    with serial.Serial(port, timeout=0.5) as link:
-        while marker not in said and time.monotonic() < deadline:
-            said += link.read(4096)
-    return said
 
 
 def flash_files(folder, frozen):
@@ -94,7 +83,9 @@ def test_the_frozen_firmware_boots_in_a_heap_the_mpy_firmware_does_not(tmp_path,
         else:
             # main.py's traceback, however long the loaded machine takes to get there: a client that
             # gave up after a fixed time and ran mpremote interrupted the import instead (Ctrl-C)
-            said = read_until(board.port, b"MemoryError", timeout=900)
+            import serial
+            with serial.Serial(board.port, timeout=0.5) as link:
+                said = read_until(link, b"MemoryError", timeout=900)
             assert b"MemoryError" in said, said
             with pytest.raises(LinkError):              # the firmware is not running: nothing answers
                 open_device(board.port, timeout=5.0).close()

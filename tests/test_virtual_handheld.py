@@ -23,6 +23,7 @@ from desktop.firmware.files import import_device
 from desktop.sim.motion import rotation_rate
 from desktop.sim.operator import LiveOperator
 from tests.interpreters import need
+from tests.port_read import read_until
 
 led = import_device("led")
 RATE = import_device("config").SCHEMA["rate"][0]    # SPS: the virtual handheld's wiring keeps the default
@@ -92,17 +93,9 @@ def test_live_world_calibrates_with_the_led_following_operator(tmp_path):
         dev.close()
 
 
-def _read_until(ser, marker, timeout):
-    buf = b""
-    end = time.monotonic() + timeout
-    while marker not in buf and time.monotonic() < end:
-        buf += ser.read(4096)
-    return buf
-
-
 def _ask(ser, line, timeout=5.0):
     ser.write(b"\n" + line.encode() + b"\n")    # a newline first: ends whatever was on the line
-    buf = _read_until(ser, b'"cmd": "%s"' % line.split()[0].encode(), timeout)
+    buf = read_until(ser, b'"cmd": "%s"' % line.split()[0].encode(), timeout)
     for ln in buf.split(b"\n"):
         try:
             d = json.loads(ln)
@@ -123,7 +116,7 @@ def test_the_board_boots_its_firmware_and_answers_in_real_time(runtime, tmp_path
     import_device("store").save(flash, "config", hh.wiring_config())
     with hh:
         ser = serial.Serial(hh.port, timeout=0.2, exclusive=True)
-        assert b'"ev": "boot"' in _read_until(ser, b'"ev": "boot"', 15.0)
+        assert b'"ev": "boot"' in read_until(ser, b'"ev": "boot"', 15.0)
         v = _ask(ser, "version")
         assert v["ok"] and v["impl"] == runtime and v["runtime"].startswith(runtime)
         s0 = _ask(ser, "status")
@@ -147,9 +140,9 @@ def test_calibrating_the_virtual_handheld_from_its_serial_line(tmp_path):
     install_firmware(flash, hh.runtime)
     with hh:
         ser = serial.Serial(hh.port, timeout=0.2)
-        _read_until(ser, b'"ev": "boot"', 15.0)
+        read_until(ser, b'"ev": "boot"', 15.0)
         assert _ask(ser, "start-cal")["ok"]
-        buf = _read_until(ser, b'"state": "done"', 60.0)
+        buf = read_until(ser, b'"state": "done"', 60.0)
         assert b'"state": "done"' in buf, buf[-400:]
         # paced: the pacer never lets simulated time run ahead of the wall clock, so >= 11 s of
         # rotation took >= 11 s here and it has measured its capacity (over 5 s windows). How
