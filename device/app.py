@@ -73,7 +73,7 @@ _IDLE_MS = 40    # or up to 40 ms where an interrupt times the button and nothin
 # board.busy keys: the main loop's work, charged as simulated time by the simulated board
 _SAMPLE_CAL = "sample_cal"
 _SAMPLE = "sample"
-# The solver's float kernels (linalgc.mpy: 6.4 KB of code on an RP2040, resident once loaded) are taken only
+# The solver's float kernels (linalgc.mpy: 16.8 KB of code on an RP2040, resident once loaded) are taken only
 # where this much heap is free as the app is built: the frozen image on a Pico (its bytecode in flash). Not the
 # .mpy firmware there (137 KB free here once collected, a session's ~42 KB of bytecode still to come; its quick
 # finishes already find little room, docs/limits.md), nor a 100 KB heap (~60 KB here), where the frozen image

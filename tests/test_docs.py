@@ -135,6 +135,20 @@ def test_readme_command_table_lists_every_subcommand():
     assert sorted(listed) == sorted(fluxcal_parsers()), (sorted(listed), sorted(fluxcal_parsers()))
 
 
+def test_readme_command_table_rows_name_the_required_options():
+    """A row of the README's table is a command a user may copy: it names every option its
+    subcommand cannot run without (`capture` without `--seconds` is refused by the parser)."""
+    from desktop.cli import build_parser
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as fh:
+        rows = dict(re.findall(r"^\| `fluxcal ([a-z-]+)([^`]*)`", fh.read(), re.M))
+    parser = build_parser()
+    subs = next(a.choices for a in parser._actions if isinstance(getattr(a, "choices", None), dict))
+    missing = ["fluxcal %s: %s" % (name, opt) for name, sub in subs.items() for a in sub._actions
+               if a.required and a.option_strings for opt in a.option_strings[:1]
+               if name in rows and not set(a.option_strings) & set(re.findall(r"--?[\w-]+", rows[name]))]
+    assert missing == [], missing
+
+
 # every check, shown to fail on a planted wrong name (the same functions the doc test runs)
 
 def _planted(index, text, lang="", doc="planted.md"):
@@ -223,3 +237,16 @@ if __name__ == "__main__":
             print("| %s |  |" % " | ".join(config_row(key, entry)))
     else:
         print(__doc__)
+
+
+def test_protocol_failure_table_lists_every_calibration_refusal():
+    """docs/protocol.md's "Calibration failure reasons": a row for each refusal shared/codes.py
+    declares (its block from "calibration refusals" to the acceptance threshold), so a reason a
+    `cal` event can carry is never one the operator's manual leaves out."""
+    with open(os.path.join(ROOT, "shared", "codes.py"), encoding="utf-8") as fh:
+        block = fh.read().split("calibration refusals", 1)[1].split("MAX_PREDICTED_NT", 1)[0]
+    reasons = set(re.findall(r'^[A-Z_]+ = "([a-z_]+)"', block, re.M))
+    with open(os.path.join(ROOT, "docs", "protocol.md"), encoding="utf-8") as fh:
+        table = fh.read().split("## Calibration failure reasons", 1)[1].split("\n## ", 1)[0]
+    rows = set(re.findall(r"^\| `([a-z_]+)`", table, re.M)) | set(re.findall(r"^\| `[a-z_]+`, `([a-z_]+)`", table, re.M))
+    assert len(reasons) > 10 and reasons - rows == set(), sorted(reasons - rows)

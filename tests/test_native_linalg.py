@@ -80,7 +80,7 @@ def test_native_linalg_on_the_emulated_cortex_m3(tmp_path, mpy_cross):
 def test_the_firmware_takes_the_kernels_only_with_room_for_them(free_needed, path, micropython):
     """device/app.py's float_kernels at boot: linalgc is imported where the heap has _KERNELS_FREE free, else not,
     and a session's shared/linalg_native.install() uses it only where it is in sys.modules: elsewhere
-    shared/linalg.py runs its Python and the module is never loaded (6.4 KB an import on rp2, kept)."""
+    shared/linalg.py runs its Python and the module is never loaded (16.8 KB an import on rp2, kept)."""
     natmod = _need_natmod(micropython, "micropython", "linalgc")
     code = ("import sys\nsys.path[:0] = [%r, %r, %r]\nimport app\n" % (os.path.dirname(natmod), os.path.join(REPO, "device"), REPO)
             + ("app._KERNELS_FREE = %d\n" % free_needed if free_needed else "")
