@@ -34,6 +34,7 @@ KEEP_CAL = "keep-cal"
 SOLVE = "solve"   # board.busy key: a solve, charged as simulated time by the simulated board
 KINDS = (AUTO, FULL, QUICK)   # start-cal's (the session's states and kinds: shared/codes.py)
 HIST_INTS = 5 * 256           # gates.py's hist (5 ints x HIST), a session's largest block (start)
+_NO_MEMORY = "the board's heap is short: the calibration in force stays (a power cycle frees it)"
 
 
 class CalibrationFlow:
@@ -130,10 +131,22 @@ class CalibrationFlow:
         if kind == QUICK and self.cal is None:
             raise ProtocolError(codes.NO_CALIBRATION, "a quick re-calibration needs a calibration in force: run a full one")
         c = self.cfg
-        period_ms = 1000.0 * c["decim"] / c["rate"]
         # the previous calibration as it stands now (its temperature coefficients applied)
         prior = None if kind == FULL else self.output.cal_now
         self.held = None   # a calibration refused as worse is kept until the next session
+        try:
+            self._open(c, kind, hold, prior)
+        except MemoryError:
+            # a heap in pieces (the .mpy firmware's on a small board: docs/limits.md): nothing half
+            # made stays, the session's modules neither, and the button's press says why (press)
+            if self.session is not None:
+                self._end()
+            self._unload()
+            gc.collect()
+            raise ProtocolError(codes.NO_MEMORY, _NO_MEMORY)
+
+    def _open(self, c, kind, hold, prior):
+        period_ms = 1000.0 * c["decim"] / c["rate"]
         if self._resident is None:
             self._resident = set(sys.modules)
         gc.collect()   # the session's largest block, the gates' hist, taken before its modules load into the holes
@@ -161,13 +174,18 @@ class CalibrationFlow:
         if self.service is not None:
             s.between, s.service = self._between, self.service
         gc.collect()
+        cal = result = held = None
         try:
             cal, result, held = self._conclude(s)
+        except MemoryError:
+            pass        # refused below, once the session's heap is back: the calibration in force stays
         finally:
             # the session and its modules collected first: the calibration's objects go where it was, packed
             s = None
             self._unload()
             gc.collect()
+        if result is None:
+            result = {"state": codes.FAILED, "reason": codes.NO_MEMORY, "msg": _NO_MEMORY}
         return self._settle(cal, result, held)
 
     def _between(self):

@@ -17,7 +17,7 @@ from desktop.devicesim.runners import start_device, write_config
 from desktop.devicesim.world import make_world
 from shared import codes
 from tests.device_bounds import spin_ptp_bound
-from tests.device_session import configured
+from tests.device_session import ask, configured
 from tests.interpreters import INTERPRETERS, float_eps, heap_bytes, need
 
 # Auto-finish is decided at provisional solves, every solve_every_s = 5 s from the press; a
@@ -104,6 +104,52 @@ def test_failed_calibrations_keep_the_previous_one(tmp_path):
     status = json.loads(w.lines()[-1])
     assert status["calibrated"] and status["last_cal"]["reason"] == "field_out_of_range"
     assert status["cal_source"] == "new"       # still the first calibration of this power-up
+    dev.close()
+
+
+def _out_of_memory(*args):
+    raise MemoryError("memory allocation failed, allocating 1280 bytes")
+
+
+def test_a_start_or_finish_the_heap_cannot_hold_is_refused_no_memory_and_the_calibration_stays(tmp_path, monkeypatch):
+    """A board whose heap is in pieces (the .mpy firmware's: docs/limits.md) may fail an allocation
+    at a session's start or its finish. Each is a failed `cal` with reason no_memory, the LED's
+    FAILED pattern and then the steady one (not "collecting" for a session that no longer runs),
+    the calibration in force kept, and the next session runs as usual."""
+    import calibration_flow
+    import led
+    w, dev = _device(tmp_path, "hand", 60.0)
+    w.press(0.2)
+    dev.run_until(25.0)
+    assert _last_cal(w)["state"] == "done"
+    before = dev.app.flow.cal.to_dict()
+    for finish_by in ("command", "button"):
+        w.send(b"start-cal full\n")
+        dev.run_until(w.time + 3.0)
+        monkeypatch.setattr(dev.app.flow.session, "finish", _out_of_memory)
+        if finish_by == "command":
+            reply = ask(w, dev, "finish-cal", dt=0.1)
+            assert reply["ok"] and reply["result"]["reason"] == "no_memory", reply
+        else:
+            w.press(0.2)
+            dev.run_until(w.time + 0.3)
+        res = _last_cal(w)
+        assert (res["state"], res["reason"]) == ("failed", "no_memory") and "in force" in res["msg"], res
+        assert dev.app.flow.session is None and dev.app.flow.cal.to_dict() == before
+        assert dev.app.led._pattern == led.FAILED and dev.app.led.base == led.SURVEY
+    # the start: a press refused with its reason and the LED's FAILED pattern, nothing left half made
+    monkeypatch.setattr(calibration_flow, "array", _out_of_memory)
+    w.press(0.2)
+    dev.run_until(w.time + 0.3)
+    res = _last_cal(w)
+    assert (res["state"], res["reason"]) == ("failed", "no_memory") and "in force" in res["msg"], res
+    assert dev.app.flow.session is None and dev.app.output.session is None and dev.app.led.base == led.SURVEY
+    assert ask(w, dev, "start-cal full")["error"] == "no_memory"
+    monkeypatch.undo()
+    assert ask(w, dev, "start-cal full")["ok"]
+    w.send(b"cancel-cal\n")
+    dev.run_until(w.time + 0.3)
+    assert dev.app.flow.cal.to_dict() == before
     dev.close()
 
 
