@@ -81,3 +81,28 @@ def test_a_board_adds_its_free_heap(tmp_path):
         assert (s["drdy"], s["reader"], s["sample"]) == ("python",) * 3     # ... nor drdy.mpy
     finally:
         dev.close()
+
+
+def test_the_protocol_doc_names_every_status_key_and_no_other():
+    """docs/protocol.md's "Status": the keys pinned above, each named there (a bullet's leading
+    names, or the acquisition counters' paragraph), and none it names that status no longer sends;
+    the progress report's keys in the `cal` event's description."""
+    import os
+    import re
+    with open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "protocol.md"),
+              encoding="utf-8") as fh:
+        doc = fh.read()
+    section = doc.split("\n## Status\n", 1)[1].split("\n## ", 1)[0]
+    named = set()
+    for bullet in re.findall(r"^- (.*?)(?=^- |\Z)", section, re.M | re.S):
+        if bullet.startswith("Acquisition counters"):    # a paragraph naming each: `name` (what it counts)
+            named |= set(re.findall(r"`([a-z_]+)`\s+\(", bullet))
+        else:                                             # a bullet's own fields: the names before its colon
+            named |= set(re.findall(r"`([a-z_]+)`", bullet.split(":", 1)[0]))
+    keys = (ALWAYS | HEALTH | {"cal", "log", "mem_free"}) - {"v", "ok", "cmd"}
+    assert keys - named == set(), "status keys protocol.md leaves out: %s" % sorted(keys - named)
+    assert named - keys == set(), "protocol.md names status keys the firmware does not send: %s" % sorted(named - keys)
+    events = doc.split("\n## Events\n", 1)[1].split("\n## ", 1)[0]
+    progress = events.split("- `cal`, progress", 1)[1].split("\n- `cal`, result", 1)[0]
+    left_out = {k for k in PROGRESS if not re.search(r"`%s(`|: )" % k, progress)}
+    assert left_out == set(), "cal progress keys protocol.md leaves out: %s" % sorted(left_out)
