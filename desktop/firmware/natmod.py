@@ -17,6 +17,7 @@ loads no MicroPython .mpy and keeps the pure-Python sums, handler, screen, de-la
 algebra.
 """
 
+import concurrent.futures
 import glob
 import hashlib
 import importlib.util
@@ -89,6 +90,9 @@ def _tooling():
     trees = glob.glob(os.path.join(REPO, "build", "interpreters", "src", "micropython-*-rp2"))
     if trees:
         return trees[0]
+    tree = os.path.join(BUILD, "src")
+    if os.path.isdir(tree):     # extracted by an earlier build here
+        return tree
     tarballs = glob.glob(os.path.join(SHARED, TARBALL))
     if not tarballs:
         return None
@@ -96,8 +100,6 @@ def _tooling():
     os.makedirs(part, exist_ok=True)
     with tarfile.open(tarballs[0]) as tar:
         tar.extractall(part)
-    tree = os.path.join(BUILD, "src")
-    shutil.rmtree(tree, ignore_errors=True)
     os.rename(os.path.join(part, os.listdir(part)[0]), tree)
     shutil.rmtree(part, ignore_errors=True)
     return tree
@@ -139,8 +141,11 @@ def build(arch, log=print):
     os.makedirs(out)
     for name in os.listdir(SOURCE):
         shutil.copy2(os.path.join(SOURCE, name), out)
-    # mpy_ld runs as `python3`: this interpreter's folder first, where pip put pyelftools
-    env = dict(os.environ, PATH=os.path.dirname(sys.executable) + os.pathsep + os.environ.get("PATH", ""))
+    # mpy_ld runs as `python3`: this interpreter's folder first, where pip put pyelftools. Its layout
+    # of linalgc's runtime (libgcc's members) follows Python's string hashing: a fixed seed makes
+    # each build the same bytes (two builds of linalgc.mpy differed in a few bytes without it)
+    env = dict(os.environ, PATH=os.path.dirname(sys.executable) + os.pathsep + os.environ.get("PATH", ""),
+               PYTHONHASHSEED="0")
     with open(os.path.join(out, "build.log"), "w") as logfile:
         for module in MODULES:
             r = subprocess.run(["make", "-C", out, "MPY_DIR=" + tree, "ARCH=" + arch, "MOD=" + module],
@@ -158,8 +163,10 @@ def build(arch, log=print):
 def main(argv=None):
     args = sys.argv[1:] if argv is None else argv
     if args[:1] == ["build"]:
-        for arch in args[1:] or ARCHS:
-            build(arch)
+        _tooling()      # the tree, once, before two architectures build from it at a time: within one,
+        # its modules' makes share a folder and run in turn (the compiles and mpy_ld's link are serial)
+        with concurrent.futures.ThreadPoolExecutor(2) as lanes:
+            list(lanes.map(build, args[1:] or ARCHS))
         return 0
     print("usage: python -m desktop.firmware.natmod build [ARCH...]", file=sys.stderr)
     return 2
