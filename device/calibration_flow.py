@@ -14,7 +14,8 @@ session in progress (session.py), and shows them on the LED: COLLECTING (keep ro
 faster than the gate), ENOUGH (press to finish), DONE / DONE_QUICK / FAILED once, then the steady pattern
 (FAULT, SAFE, SURVEY or UNCALIBRATED; led.py). A new calibration gets temperature coefficients fitted against the
 one it replaces when their die temperatures are tempco_min_span_c apart, else the previous ones carried over
-(docs/temperature.md). A session ends early with reason "fault" (health.py) or "internal_error" (bootguard.py).
+(docs/temperature.md). A session ends early with reason "fault" (health.py) or "internal_error" (bootguard.py);
+a start or a finish the heap cannot hold fails with "no_memory", the calibration in force kept.
 """
 
 import gc
