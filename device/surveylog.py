@@ -71,7 +71,7 @@ class Recorder:
         if self.size + RECORD > self.limit:
             self.full = True
             self.flush(close=True)
-            self.proto.event(codes.EV_SURVEY, {"state": "log_full", "bytes": self.size, "records": self.records})
+            self.proto.event("survey", {"state": "log_full", "bytes": self.size, "records": self.records})
             return
         struct.pack_into("<Ii", self._buf, 0, ms & 0xFFFFFFFF, value)
         try:
@@ -100,7 +100,7 @@ class Recorder:
         ms = self.board.ticks_diff(down, self.t0)
         self.marks += 1
         self._append(ms, MARK)
-        self.proto.event(codes.EV_MARK, {"t": down, "ms": ms, "n": self.marks})
+        self.proto.event("mark", {"t": down, "ms": ms, "n": self.marks})
 
     def flush(self, close=False):
         """What is written onto the flash (a power cut keeps it); close: and the log ends."""

@@ -26,8 +26,6 @@ EV_RAW = "raw"              # a survey sample in ADC codes (stream raw)
 EV_ERROR = "error"
 EV_FAULT = "fault"          # an ADC fault begins, changes or clears
 EV_SAFE_MODE = "safe_mode"
-EV_MARK = "mark"            # a survey's line mark: the button, while a survey records
-EV_SURVEY = "survey"        # the survey's flash log reached its bound ("state": "log_full")
 # sent by `fluxcal emulate`, never by the firmware: the emulated board's port is held while the
 # emulator deploys and starts its firmware ("msg" says so); desktop/link raises it as BusyError
 EV_EMULATOR_BUSY = "emulator_busy"

@@ -115,7 +115,8 @@ def print_tables(pico, mp, f, parts=None):
     ]
     for label, w, key in (("calibrating", pc, "calibrating"), ("survey, stream on", ps, "survey")):
         est = m3_estimate(f, label.split(",")[0], 0, True)
-        rows.append(("CPU load %s (cycles awake / cycles)" % label, "%.1f %%" % (100 * w["load"]),
+        # two decimals: the survey's target (5 %) is where one decimal can no longer tell the side
+        rows.append(("CPU load %s (cycles awake / cycles)" % label, "%.2f %%" % (100 * w["load"]),
                      "Cortex-M3 estimate %s, measured / estimate %s; profiled %s" % (
                          _pct(est), _ratio(w["awake_cycles"] / w["emulated_s"], est),
                          "-" if prof is None else "%.1f %%" % (100 * prof[key]["load"]))))

@@ -205,14 +205,14 @@ def _record(dev, info, rec, args, gps):
                     rec.reading(ms, ev["f"], ev.get("c"), ev.get("temp"))
                     rec.meta["handheld_calibrated"] = bool(ev.get("cal"))
                     arrivals.append((now, ms / 1000.0))
-            elif name == codes.EV_MARK:
+            elif name == "mark":
                 if rec.mark(ev["ms"]):
                     k = len(rec.marks)
                     print("line %d %s (mark %d)" % ((k + 1) // 2, "started" if k % 2 else "ended", k), flush=True)
                     if beat:
                         beat.mark(now, k)
                     saved_at = _save(rec, args.output, gps, arrivals)
-            elif name == codes.EV_SURVEY and ev.get("state") == "log_full":
+            elif name == "survey" and ev.get("state") == "log_full":
                 print("note: the handheld's flash log is full (%d bytes): the rest is in the stream only"
                       % ev.get("bytes", 0), file=sys.stderr, flush=True)
             elif name == codes.EV_BOOT:
