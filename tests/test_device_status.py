@@ -6,7 +6,11 @@ user's laptop (docs/protocol.md lists the keys for users; desktop/cli reads them
 The sets were taken from the firmware as it was before its state was split among those owners.
 """
 
+import os
+import re
+
 from tests.device_session import ask, boot
+from tests.docs_index import ROOT
 
 # in every reply, whatever the state
 ALWAYS = {"v", "ok", "cmd", "state", "fault", "fault_code", "safe_mode", "errors", "last_error", "calibrated",
@@ -87,10 +91,7 @@ def test_the_protocol_doc_names_every_status_key_and_no_other():
     """docs/protocol.md's "Status": the keys pinned above, each named there (a bullet's leading
     names, or the acquisition counters' paragraph), and none it names that status no longer sends;
     the progress report's keys in the `cal` event's description."""
-    import os
-    import re
-    with open(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "protocol.md"),
-              encoding="utf-8") as fh:
+    with open(os.path.join(ROOT, "docs", "protocol.md"), encoding="utf-8") as fh:
         doc = fh.read()
     section = doc.split("\n## Status\n", 1)[1].split("\n## ", 1)[0]
     named = set()
