@@ -203,11 +203,12 @@ def test_capture_then_fit_offline_then_report(handheld, tmp_path):
 
 def test_monitor_raw_with_plot_and_the_terminal_view(handheld, tmp_path):
     png = tmp_path / "monitor.png"     # no display here: the plot into a file
-    out = ok(fluxcal("monitor", "--raw", "--plot", png, "--seconds", 2, "--port", handheld.port, MPLBACKEND="Agg"))
+    wait = ("--timeout", "10")      # for the first reply: the handheld runs in real time on a loaded machine
+    out = ok(fluxcal("monitor", "--raw", "--plot", png, "--seconds", 2, *wait, "--port", handheld.port, MPLBACKEND="Agg"))
     assert "raw |B|: mean" in out.splitlines()[-1] and png.stat().st_size > 10000
     # on a terminal: the live table (rich), then the same summary
     main, sub = pty.openpty()
-    proc = subprocess.Popen([sys.executable, "-m", "desktop", "monitor", "--seconds", "2", "--port", handheld.port],
+    proc = subprocess.Popen([sys.executable, "-m", "desktop", "monitor", "--seconds", "2", *wait, "--port", handheld.port],
                             cwd=ROOT, stdin=subprocess.DEVNULL, stdout=sub, stderr=subprocess.PIPE)
     os.close(sub)
     screen = _read_all(main, proc)
