@@ -188,6 +188,38 @@ def test_report_undoes_the_lag_the_calibration_carries(tmp_path, capsys):
     assert delagged < 5.0 and lagging > 10 * delagged
 
 
+def test_report_leaves_out_the_de_lags_one_sided_ends(tmp_path, capsys):
+    # the derivative's first and last 2k samples are one-sided differences (desktop/methods/lag.py):
+    # where a recording starts and ends mid-turn they read |B| off by ~tau w^2 B k dt / 3 (the
+    # centripetal h'' lies along h), and a report that kept them gave their peak-to-peak as the
+    # calibration's (8.4 nT for a stream's 0.3 nT on the virtual handheld's capture)
+    from desktop.formats.readings import LogFormat, read_log
+    from desktop.methods import correct_array
+    from desktop.methods.lag import derivative, span_samples
+
+    fit_npz, cal_json, log = str(tmp_path / "fit.npz"), str(tmp_path / "cal.json"), str(tmp_path / "turning.csv")
+    assert main(["simulate", "--sensor", "mag649", "--seed", "5", "--rate", str(SPS), "--rot-rate", "1",
+                 "--seconds", "20", "--bandwidth", "220", "-o", fit_npz]) == 0
+    assert main(["fit", fit_npz, "-o", cal_json, "--lag", "0.000723", "--accept-anyway"]) == 0
+    h, _ = read_log(fit_npz, LogFormat())
+    t = np.load(fit_npz)["t"]
+    # a log cut where the hand turns fastest, in its first and its last third
+    rate = np.linalg.norm(derivative(h, t), axis=1)
+    n = len(h)
+    a = int(np.argmax(rate[: n // 3]))
+    b = 2 * n // 3 + int(np.argmax(rate[2 * n // 3:])) + 1
+    np.savetxt(log, np.column_stack([t[a:b], h[a:b]]), delimiter=",", header="t,x,y,z", comments="")
+    capsys.readouterr()
+    assert main(["report", log, "--cal", cal_json, "-o", str(tmp_path / "r")]) == 0
+    reported = float(capsys.readouterr().out.split("peak-to-peak ")[1].split(" nT")[0])
+    cal = Calibration.from_dict(json.load(open(cal_json)))
+    resid = np.linalg.norm(correct_array(cal, delag(h[a:b], t[a:b], cal.response["tau_s"])), axis=1) - cal.field
+    edge = 2 * span_samples(t[a:b])
+    assert "its first and last %d samples (one-sided) left out" % edge in (tmp_path / "r" / "summary.md").read_text()
+    assert reported == pytest.approx(np.ptp(resid[edge:-edge]), abs=1e-3)
+    assert np.ptp(resid) > 2 * reported        # what the ends alone added
+
+
 def test_fit_names_a_response_it_cannot_identify_and_takes_a_configured_one(tmp_path, capsys):
     fit_npz, cal_json = str(tmp_path / "fit.npz"), str(tmp_path / "cal.json")
     assert main(["simulate", "--sensor", "mag649", "--seed", "5", "--rate", str(SPS), "--rot-rate", "0.1",

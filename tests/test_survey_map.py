@@ -95,3 +95,5 @@ def test_cli_maps_a_simulated_survey(tmp_path, capsys):
     assert main(["simulate", "--seconds", "2", "--rate", "250", "-o", str(hand)]) == 0
     assert main(["map", str(hand), "-o", str(out)]) == 1
     assert "not a walked survey" in capsys.readouterr().err
+    assert main(["map", str(hand), "-o", str(tmp_path / "new")]) == 1
+    assert not (tmp_path / "new").exists()      # a refused map makes no folder

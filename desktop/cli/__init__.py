@@ -74,8 +74,16 @@ class _Version(argparse.Action):
         parser.exit()
 
 
+class _Parser(argparse.ArgumentParser):
+    """A bad option is bad input: one line and exit 1, as every command's own refusals (not
+    argparse's usage block and exit 2); the subcommands' parsers are of this class too."""
+
+    def error(self, message):
+        self.exit(1, "fluxcal: %s (%s --help)\n" % (message, self.prog))
+
+
 def build_parser():
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="fluxcal",
         description="In-field scalar calibration of a three-axis fluxgate magnetometer.",
     )

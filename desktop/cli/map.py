@@ -39,14 +39,14 @@ def run(args):
 
     if args.clip <= 0 or not 0.01 <= args.sample <= 1.0:
         raise CommandError("--clip must be positive and --sample within 0.01..1 m")
-    if not os.path.isdir(args.output):
+    cal = load_calibration(args.cal) if args.cal else None
+    steps = [s for s in STEPS if not getattr(args, "no_" + s)]
+    res = make_map(args.survey, cal, steps, not args.no_interpolate, args.sample, args.threshold)
+    if not os.path.isdir(args.output):     # only once the map is made: a refused survey leaves no folder
         try:
             os.makedirs(args.output)
         except OSError as exc:
             raise CommandError("%s: %s" % (args.output, exc.strerror or exc))
-    cal = load_calibration(args.cal) if args.cal else None
-    steps = [s for s in STEPS if not getattr(args, "no_" + s)]
-    res = make_map(args.survey, cal, steps, not args.no_interpolate, args.sample, args.threshold)
     on_handheld = res.survey_grid.handheld_calibrated
     what = "total-field anomaly of %s, %s" % (os.path.basename(args.survey),
                                               "calibrated by %s" % os.path.basename(args.cal) if cal

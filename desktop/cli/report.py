@@ -39,31 +39,36 @@ def add_arguments(p):
 
 
 def run(args):
+    import matplotlib  # noqa: F401 - the plots extra, asked for before any output (cli EXTRAS: one line)
     import numpy as np
 
     from desktop.cli._report_figures import write_figures
     from desktop.formats.readings import read_log
     from desktop.views.verdict import coverage_counts, verdict
     from desktop.methods import correct_array
-    from desktop.methods.lag import delag
+    from desktop.methods.lag import delag, span_samples
 
     h, t_log = read_log(args.capture, log_format(args))
     capture = _capture_arrays(args.capture)
     cal, source = _calibration(args, h, capture)
-    if cal.response is not None:     # the raw figures keep the readings as read; |B| is de-lagged
-        h_in = delag(h, sample_times(args, args.capture, len(h), t_log), cal.response["tau_s"])
-        source += ", lag undone (tau %s ms)" % ", ".join("%.3f" % (1e3 * v) for v in cal.response["tau_s"])
-    else:
-        h_in = h
-    try:
-        os.makedirs(args.output, exist_ok=True)
-    except OSError as exc:
-        raise CommandError("%s: %s" % (args.output, exc.strerror or exc))
-    corrected = correct_array(cal, h_in)
     if capture is not None and len(capture.get("t", ())) == len(h):
         t = capture["t"]
     else:    # a log's time column, or (None) the figures number the samples
         t = t_log
+    if cal.response is not None:     # the raw figures keep the readings as read; |B| is de-lagged
+        ts = sample_times(args, args.capture, len(h), t_log)
+        h_in = delag(h, ts, cal.response["tau_s"])
+        source += ", lag undone (tau %s ms)" % ", ".join("%.3f" % (1e3 * v) for v in cal.response["tau_s"])
+        # the derivative's first and last 2k samples are one-sided (desktop/methods/lag.py): at a
+        # turning hand's rate they read |B| off by nT, so the figures leave them out
+        edge = 2 * span_samples(ts)
+        if len(h) > 4 * edge:
+            h, h_in = h[edge:-edge], h_in[edge:-edge]
+            t = None if t is None else t[edge:-edge]
+            source += ", its first and last %d samples (one-sided) left out" % edge
+    else:
+        h_in = h
+    corrected = correct_array(cal, h_in)
     timed = t is not None
     counts = coverage_counts(corrected, CELLS, COVERAGE_MAX)
     head, warnings = verdict(cal.diagnostics.get("predicted_error"), counts, CELLS, corrected, cal.field,
@@ -71,6 +76,10 @@ def run(args):
     print(head)
     for line in warnings:
         print(line)
+    try:
+        os.makedirs(args.output, exist_ok=True)
+    except OSError as exc:
+        raise CommandError("%s: %s" % (args.output, exc.strerror or exc))
     figures = write_figures(args.output, h, corrected, t, cal, counts, CELLS)
     summary = os.path.join(args.output, "summary.md")
     try:
