@@ -94,3 +94,22 @@ def stream_events(dev, name, seconds=None, silence=None):
             raise LinkError("no %s from the device on %s for %.0f s: it stopped, reset or was unplugged"
                             % (name, dev.port, silence))
 
+
+
+def save_device_calibration(record, scale, path):
+    """A calibration record the handheld sent (get-cal), validated, written to `path` in its code
+    units with the front end's scale (pull-cal's file); the Calibration. CommandError if invalid."""
+    from desktop.formats.calibration import CODE_UNITS, plausibility_problem, save_calibration
+    from shared.calibration import Calibration
+
+    try:
+        cal = Calibration.from_dict(record)
+    except ValueError as exc:
+        raise CommandError("the handheld sent an invalid calibration: %s" % exc)
+    problem = plausibility_problem(cal)
+    if problem:
+        raise CommandError("the handheld's calibration is not plausible, not written: %s" % problem)
+    cal.meta["units"] = CODE_UNITS
+    cal.meta.setdefault("scale", scale)
+    save_calibration(path, cal)
+    return cal

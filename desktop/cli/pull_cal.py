@@ -1,7 +1,7 @@
 """fluxcal pull-cal -o CAL.json: the calibration in force on the handheld, validated, to a file."""
 
 from desktop.cli._errors import CommandError
-from desktop.cli._device import add_port_arguments, connected, device_config, nT_per_code
+from desktop.cli._device import add_port_arguments, connected, device_config, nT_per_code, save_device_calibration
 
 HELP = "save the handheld's calibration in force to a JSON file (in ADC code units)"
 
@@ -13,24 +13,13 @@ def add_arguments(p):
 
 def run(args):
     from desktop.cli._show import calibration_lines
-    from desktop.formats.calibration import CODE_UNITS, plausibility_problem, save_calibration
-    from shared.calibration import Calibration
 
     with connected(args) as dev:
         record = dev.ask("get-cal")["cal"]
         scale = nT_per_code(device_config(dev))
     if record is None:
         raise CommandError("the handheld on %s holds no calibration (fluxcal calibrate first)" % dev.port)
-    try:
-        cal = Calibration.from_dict(record)
-    except ValueError as exc:
-        raise CommandError("the handheld sent an invalid calibration: %s" % exc)
-    problem = plausibility_problem(cal)
-    if problem:
-        raise CommandError("the handheld's calibration is not plausible, not written: %s" % problem)
-    cal.meta["units"] = CODE_UNITS
-    cal.meta.setdefault("scale", scale)
-    save_calibration(args.output, cal)
+    save_device_calibration(record, scale, args.output)
     print("wrote %s (from %s; h_c = matrix (codes - offset), nT)" % (args.output, dev.port))
     for line in calibration_lines(record):
         print("  " + line)

@@ -3,13 +3,19 @@
 Checked here before anything is sent (a valid record, a positive definite
 matrix, a field the Earth has), then by the firmware's own acceptance checks
 (set-cal). A file from `fluxcal fit` takes nT; it is converted to the device's
-code units with the device's front-end scale (config scale_x/y/z).
+code units with the device's front-end scale (config scale_x/y/z). The calibration
+it replaces is written first, beside CAL.json (replaced-YYYYMMDD-HHMMSS.json, a
+pull-cal file), so that the wrong file pushed is one push-cal from undone; none is
+written when the same calibration is in force, and it is removed when the firmware
+refuses the new one (the old one then stays in force).
 """
 
 import json
+import os
+import time
 
 from desktop.cli._errors import CommandError
-from desktop.cli._device import add_port_arguments, connected, device_config, nT_per_code
+from desktop.cli._device import add_port_arguments, connected, device_config, nT_per_code, save_device_calibration
 from shared.codes import MAX_LINE
 
 HELP = "send a calibration JSON to the handheld (validated here and by the firmware)"
@@ -28,14 +34,24 @@ def run(args):
     problem = plausibility_problem(cal)
     if problem:
         raise CommandError("%s: not sent: %s" % (args.calibration, problem))
+    from desktop.link import DeviceError
+
     with connected(args) as dev:
         converted = not takes_codes(cal)
-        cal = to_code_units(cal, nT_per_code(device_config(dev)))
+        scale = nT_per_code(device_config(dev))
+        cal = to_code_units(cal, scale)
         request = "set-cal " + json.dumps(cal.to_dict(), separators=(",", ":"))
         if len(request) > MAX_LINE:   # the firmware would drop it (line_too_long)
             raise CommandError("%s: %d bytes as a request, the firmware takes %d: trim its meta"
                                % (args.calibration, len(request), MAX_LINE))
-        dev.ask(request)
+        old = dev.ask("get-cal")["cal"]
+        kept = None if old is None or _same_in_all(old, cal) else _keep(old, scale, args.calibration)
+        try:
+            dev.ask(request)
+        except DeviceError:      # refused: the one in force stays, and no copy of it is left
+            if kept:
+                os.remove(kept)
+            raise
         back = dev.ask("get-cal")["cal"]
     if back is None or not _same(back, cal):
         raise CommandError("the handheld accepted the calibration but reports another one back")
@@ -44,7 +60,25 @@ def run(args):
     print("  " + fit_figures(dict(cal.diagnostics, field=cal.field)))
     if cal.response is not None:
         print("  its survey output de-lagged with tau %s ms" % ", ".join("%.3f" % (1e3 * t) for t in cal.response["tau_s"]))
+    if kept:
+        print("  the calibration it replaced is in %s: fluxcal push-cal %s puts it back" % (kept, kept))
     return 0
+
+
+def _keep(record, scale, pushed):
+    """The calibration in force (get-cal's record) written beside the pushed file; its path."""
+    stem = os.path.join(os.path.dirname(os.path.abspath(pushed)), "replaced-" + time.strftime("%Y%m%d-%H%M%S"))
+    path, n = stem + ".json", 1
+    while os.path.exists(path):    # two pushes within a second
+        n += 1
+        path = "%s-%d.json" % (stem, n)
+    from desktop.formats import FormatError
+
+    try:
+        save_device_calibration(record, scale, path)
+    except (CommandError, FormatError) as exc:
+        raise CommandError("not sent: the calibration in force could not be kept first (%s)" % exc)
+    return os.path.relpath(path)
 
 
 def _same(record, cal, rel=1e-5):
@@ -52,3 +86,18 @@ def _same(record, cal, rel=1e-5):
     sent = [v for row in cal.matrix for v in row] + cal.offset + [cal.field]
     got = [v for row in record["matrix"] for v in row] + list(record["offset"]) + [record["field"]]
     return all(abs(a - b) <= rel * max(abs(a), abs(b), 1e-12) for a, b in zip(sent, got))
+
+
+def _same_in_all(record, cal):
+    """_same, and the same response and temperature coefficients: nothing the survey applies differs."""
+    return _same(record, cal) and _near(record.get("response"), cal.response) and _near(record.get("tempco"), cal.tempco)
+
+
+def _near(a, b, rel=1e-5):
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
+        return abs(a - b) <= rel * max(abs(a), abs(b), 1e-12)
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_near(a[k], b[k], rel) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_near(x, y, rel) for x, y in zip(a, b))
+    return a == b
