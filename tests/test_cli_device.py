@@ -81,7 +81,7 @@ def test_calibrate_auto_then_pull_cal_agrees_with_a_numpy_fit(tmp_path):
         verified = [line for line in out.splitlines() if line.startswith("verification:")]
         assert "coverage" in out and "READY" in out                   # progress lines, piped
         assert "+X" in out and "-Z" in out and "# full (24 samples)" in out   # the coverage map, its legend
-        assert "calibration done: field" in out and "saved, in force" in out and "replaced: no calibration" in out
+        assert "calibration done: field" in out and "saved, in force" in out and "replaced: none (no calibration was in force)" in out
         assert "full calibration" in out
         # auto-finish comes at a provisional solve (every solve_every_s = 5 s); a hand at ~1 rev/s is
         # ready by the third (test_device_calibration: 11 s measured), the fifth (25 s) at worst

@@ -86,7 +86,7 @@ def run(args):
     if verify:
         print("verification: %d samples of corrected |B| over %.1f s: peak-to-peak %.3f nT, std %.3f nT" % verify)
     if previous is None:
-        print("replaced: no calibration")
+        print("replaced: none (no calibration was in force)")
     else:
         print("replaced:")
         for line in calibration_lines(previous, status):

