@@ -157,6 +157,9 @@ class MicroPythonDeploy:
         """The commands a deploy runs, one a line (the compiled files' folder named MPY)."""
         lines = ["# %s: a temporary folder, where mpy-cross compiles the firmware for the .mpy version and "
                  "arch the first command reads" % MPY_DIR] if self.compiled else []
+        # the native modules join lib/'s copy only once the board said its arch (not asked here)
+        lines.append("# and into lib/, where a build matches the arch and .mpy version the first command reads: %s"
+                     % ", ".join(os.path.basename(p) for p in NATIVES))
         return lines + [shlex.join(argv) for argv in self.commands()]
 
     # ****** running them ******

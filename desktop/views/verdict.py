@@ -16,6 +16,7 @@ import numpy as np
 from desktop.views.coverage_text import guidance
 from desktop.methods.turn_rate import rate_effect
 from desktop.views.sphere import largest_gap
+from shared.codes import MAX_PREDICTED_NT
 from shared.coverage import Coverage
 
 # the firmware's min_coverage (device/config.py): the share of cells a calibration wants before it
@@ -98,7 +99,12 @@ def verdict(predicted_nt, counts, edge, corrected, field, t, timed=True, min_cov
         head = "good to %.3f nT rms on these samples (no predicted full-sphere error)" % rms
     else:
         head = "good to %.3f nT over the sphere" % predicted_nt
-    if not improve:
+        if predicted_nt > MAX_PREDICTED_NT:    # e.g. a compass chip's LSB of ~100 nT
+            head += " (above the %g nT `fluxcal fit` and the handheld accept)" % MAX_PREDICTED_NT
+    if not improve and predicted_nt is not None and predicted_nt > MAX_PREDICTED_NT:
+        improve.append("nothing in the recording (%.0f %% of the sphere covered, no error growing with the turn "
+                       "rate): the samples' own scatter, %.3f nT rms, sets it" % (100 * share, rms))
+    elif not improve:
         improve.append("nothing to change: %.0f %% of the sphere covered, no error growing with the turn rate"
                        % (100 * share))
     return "%s; to improve: %s" % (head, "; ".join(improve)), warnings
