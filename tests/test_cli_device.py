@@ -65,6 +65,11 @@ def test_status_reports_firmware_calibration_and_health(handheld):
     assert "acquisition:" in out and "0 ring overflows" in out and "faults: none" in out
     d = json.loads(ok(fluxcal("status", "--json", "--port", handheld.port)))
     assert d["version"]["proto"] == 1 and d["status"]["state"] == "survey" and d["status"]["frames"] > 0
+    # which code runs, in C or in Python, as the status keys say (issue 19: status names the path)
+    paths = next(line for line in out.splitlines() if line.startswith("code paths: "))
+    for key, words in (("sums", "fit sums"), ("drdy", "DRDY handler"), ("screen", "spike screen")):
+        side = "in C: " if d["status"][key] == "native" else "in Python: "
+        assert words in paths.split(side)[1].split(";")[0], (key, paths)
 
 
 def test_calibrate_auto_then_pull_cal_agrees_with_a_numpy_fit(tmp_path):

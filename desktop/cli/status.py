@@ -47,6 +47,9 @@ def run(args):
               "%d discarded blocks, %d bad status headers, %d gaps"
               % (st["frames"], st["samples"], st["overflow"], st["missed"], st["discarded"], st["badsync"],
                  st["gaps"]))
+    paths = _paths(st)
+    if paths:
+        print("code paths: " + paths)
     faults = [st["fault"]] if st.get("fault") else []
     faults += ["config: %s" % p for p in st.get("config_problems") or []]
     if (st.get("log") or {}).get("error"):
@@ -64,6 +67,21 @@ def run(args):
         c = st["cal"]
         print("calibrating now: %d samples, coverage %.0f %%" % (c.get("n", 0), 100 * (c.get("coverage") or 0)))
     return 0
+
+
+# status's keys that say which code runs, in a line's words (docs/protocol.md, Status)
+PATHS = (("sums", "fit sums"), ("linalg", "solver's float work"), ("drdy", "DRDY handler"), ("reader", "ring reader"),
+         ("sample", "sample path"), ("screen", "spike screen"), ("delag", "de-lag"), ("magnitude", "|h_c|"))
+
+
+def _paths(st):
+    """'in C: fit sums, ...; in Python: ...' from status's path keys (those it sends), or ''."""
+    said = {}
+    for key, words in PATHS:
+        if st.get(key) in ("native", "python"):
+            said.setdefault(st[key], []).append(words)
+    return "; ".join("in %s: %s" % ("C" if path == "native" else "Python", ", ".join(said[path]))
+                     for path in ("native", "python") if path in said)
 
 
 SINCE = {"set-cal": "replaced since by a calibration sent with set-cal (fluxcal push-cal, calibrate)",
