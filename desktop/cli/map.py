@@ -61,7 +61,7 @@ def run(args):
     for line in res.report:
         print("  " + line)
     print("  stripes before destriping: %.2f nT rms of the traverse medians" % res.stripes_nT)
-    print("%d anomalies over %.1f nT:" % (len(res.anomalies), res.threshold_nT))
+    print("%d anomalies over %.1f nT%s" % (len(res.anomalies), res.threshold_nT, ":" if res.anomalies else ""))
     for k, a in enumerate(res.anomalies, 1):
         print("  %d. %s" % (k, a.summary()))
     print("wrote %s (map.png, grid.csv, anomalies.csv)" % args.output)
