@@ -94,29 +94,40 @@ def test_the_frozen_firmware_boots_in_a_heap_the_mpy_firmware_does_not(tmp_path,
 
 
 def test_deploy_onto_the_frozen_image_installs_only_what_the_image_lacks(tmp_path):
-    """`fluxcal deploy` on a board whose image has the firmware frozen in (make pico-frozen): the
-    image's modules would answer before lib/'s, so it copies boot.py, main.py and the native
-    modules, says the image's firmware runs, and that firmware answers after the reset."""
+    """`fluxcal emulate --runtime pico --frozen --bare` (the image with the firmware frozen in, make
+    pico-frozen's), then `fluxcal deploy` as a user types it: the image's modules would answer before
+    lib/'s, so it copies boot.py, main.py and the native modules, says the image's firmware runs,
+    and that firmware answers after the reset; `fluxcal status` says the solver's float work runs
+    in C there (the frozen image has the heap for its kernels)."""
     need("rp2-pico-frozen")
-    from desktop.devicesim.pico_board import PicoBoard
     from desktop.firmware.deploy import firmware_version
     from desktop.firmware.natmod import MODULES, natmod_path
     from desktop.link import open_device
+    from tests.test_pico_laptop import read_until as read_line
 
     natives = [m for m in MODULES if natmod_path("armv6m", m) is not None]
     fluxcal = os.path.join(os.path.dirname(sys.executable), "fluxcal")
     stale = tmp_path / "app.mpy"           # an earlier .mpy deploy's module: flash the image never reads
     stale.write_bytes(b"M")
-    with PicoBoard(str(tmp_path / "pico.flash"), idle="jump", frozen=True) as board:
-        mpremote(board.port, "fs", "mkdir", ":lib", "+", "fs", "cp", str(stale), ":lib/app.mpy")
-        r = subprocess.run([fluxcal, "deploy", "--port", board.port, "--wait", "120"], capture_output=True,
+    emu = subprocess.Popen([fluxcal, "emulate", "--runtime", "pico", "--frozen", "--bare", "--flash", tmp_path / "flash"],
+                           stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        port = read_line(emu, " on /dev/", 60).split(" on ")[-1].strip()
+        read_line(emu, "ready", 300)
+        mpremote(port, "fs", "mkdir", ":lib", "+", "fs", "cp", str(stale), ":lib/app.mpy")
+        r = subprocess.run([fluxcal, "deploy", "--port", port, "--wait", "120"], capture_output=True,
                            text=True, timeout=600)
         assert r.returncode == 0, r.stdout + r.stderr
         said = r.stdout.strip().splitlines()[-1]
         # boot.py, main.py and the native modules: no module the image holds
         assert said.startswith("deployed %d files (the firmware frozen in the image" % (2 + len(natives))), said
         assert "the image's firmware %s runs" % firmware_version("micropython") in said, said
-        dev = open_device(board.port, timeout=30.0)
+        shown = subprocess.run([fluxcal, "status", "--port", port, "--timeout", "30"], capture_output=True,
+                               text=True, timeout=120)
+        assert shown.returncode == 0, shown.stderr
+        paths = next(line for line in shown.stdout.splitlines() if line.startswith("code paths: "))
+        assert paths.startswith("code paths: in C: fit sums, solver's float work, DRDY handler") and "Python" not in paths, paths
+        dev = open_device(port, timeout=30.0)
         try:
             st = dev.ask("status")
             dev.ask("repl")
@@ -124,5 +135,9 @@ def test_deploy_onto_the_frozen_image_installs_only_what_the_image_lacks(tmp_pat
             dev.close()
         # the native modules went on (the image has none of its own) and run; the stale module went
         assert [st[k] for k in ("sums", "drdy", "screen", "reader", "sample", "linalg")] == ["native"] * 6, st
-        listed = mpremote(board.port, "fs", "ls", ":lib")
+        listed = mpremote(port, "fs", "ls", ":lib")
         assert "app.mpy" not in listed and all("%s.mpy" % m in listed for m in natives), listed
+    finally:
+        emu.stdin.write("q")
+        emu.stdin.close()
+        emu.wait(timeout=60)

@@ -29,6 +29,9 @@ def add_arguments(p):
                    help="the interpreter the board runs (default micropython; pico: the rp2 port's own"
                         " firmware on an emulated Raspberry Pi Pico; cpython: the firmware in this process,"
                         " no REPL)")
+    p.add_argument("--frozen", action="store_true",
+                   help="--runtime pico: the image with the firmware frozen in (make pico-frozen: its bytecode in"
+                        " flash, the solver's kernels taken; a deploy adds only what it lacks)")
     p.add_argument("--sensor", choices=("mag649", "mag648"), default="mag649")
     p.add_argument("--seed", type=int, default=0, help="the sensor's errors")
     p.add_argument("--flash", help="the board's flash folder (default: a new temporary one)")
@@ -81,6 +84,8 @@ def run(args):
     from desktop.devicesim.virtual_handheld import InProcessHandheld, VirtualHandheld
     from desktop.link.ports import announce_emulator
 
+    if args.frozen and args.runtime != "pico":
+        raise CommandError("--frozen is the Pico's image with the firmware frozen in: --runtime pico --frozen")
     script = read_script(args.script) if args.script else []
     survey = _survey(args)
     behind = []
@@ -99,7 +104,7 @@ def run(args):
     elif args.runtime == "pico":
         from desktop.devicesim.pico_handheld import PicoHandheld
         try:        # its clock is the emulated chip's: no --speed, it never runs ahead of real time
-            hh = PicoHandheld(flash, sensor=args.sensor, seed=args.seed)
+            hh = PicoHandheld(flash, sensor=args.sensor, seed=args.seed, frozen=args.frozen)
         except FileNotFoundError as exc:
             raise CommandError(str(exc))
     else:
