@@ -160,6 +160,18 @@ def test_format_errors_name_the_file(tmp_path):
         read_log(str(path))
 
 
+@pytest.mark.parametrize("rows, said", [
+    ("foo,bar,baz\n1,2,three\nhello world\n", "line 2: expected numbers in x,y,z"),   # not line 4's short row
+    ("1,2,3\n4,5\n1,2,three\n", "line 3 has fewer columns than the header (column 2 needed)"),
+    ("1,2,3\n1,2,three\n4,5\n", "line 3: expected numbers in x,y,z"),
+])
+def test_a_bad_row_is_named_by_the_first_line_that_has_a_problem(tmp_path, rows, said):
+    path = tmp_path / "bad.csv"
+    path.write_text("x,y,z\n" + rows)
+    with pytest.raises(FormatError, match="bad.csv: " + said.replace("(", "\\(").replace(")", "\\)")):
+        read_log(str(path))
+
+
 def test_a_spreadsheets_byte_order_mark_and_8_bit_text(tmp_path, field):
     rows = "".join("%.4f;%.4f;%.4f\n" % tuple(v) for v in field)
     bom = tmp_path / "excel.csv"

@@ -175,15 +175,16 @@ def time_column(table, spec=None):
 
 
 def numbers(table, cols, what="x,y,z"):
-    """(N, len(cols)) float64 of those columns; a missing or non-numeric field names its line."""
+    """(N, len(cols)) float64 of those columns; a missing or non-numeric field names its line (the
+    first in the file that has either)."""
     try:
-        picked = [[fields[c] for c in cols] for _, fields in table.rows]
-    except IndexError:
-        line = next(n for n, fields in table.rows if len(fields) <= max(cols))
-        raise FormatError("%s: line %d has fewer columns than the header (column %d needed)"
-                          % (table.path, line, max(cols)))
-    try:
-        return np.array(picked, dtype=float).reshape(len(picked), len(cols))
-    except ValueError:
-        line = next(n for (n, _), row in zip(table.rows, picked) if not all(_is_number(f) for f in row))
-        raise FormatError("%s: line %d: expected numbers in %s" % (table.path, line, what))
+        return np.array([[fields[c] for c in cols] for _, fields in table.rows], dtype=float).reshape(-1, len(cols))
+    except (IndexError, ValueError):
+        pass
+    for line, fields in table.rows:
+        if len(fields) <= max(cols):
+            raise FormatError("%s: line %d has fewer columns than the header (column %d needed)"
+                              % (table.path, line, max(cols)))
+        if not all(_is_number(fields[c]) for c in cols):
+            raise FormatError("%s: line %d: expected numbers in %s" % (table.path, line, what))
+    raise FormatError("%s: expected numbers in %s" % (table.path, what))    # a field numpy refused and float() took
