@@ -158,6 +158,16 @@ def test_format_errors_name_the_file(tmp_path):
     path.write_text("# only a comment\n\n")
     with pytest.raises(FormatError, match="empty.csv: empty file"):
         read_log(str(path))
+    # every reader says a missing file, a folder and a text file given for a capture in the same words
+    from desktop.formats.calibration import load_calibration
+    from desktop.formats.capture import load_capture
+    for load in (read_log, load_calibration, load_capture):
+        with pytest.raises(FormatError, match="gone.json: no such file$"):
+            load(str(tmp_path / "gone.json"))
+    with pytest.raises(FormatError, match=": a folder, not a file$"):
+        load_calibration(str(tmp_path))
+    with pytest.raises(FormatError, match=r"empty.csv: not a fluxcal capture \(not an .npz"):
+        load_capture(str(path))
 
 
 @pytest.mark.parametrize("rows, said", [

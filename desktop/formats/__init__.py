@@ -12,3 +12,12 @@ the file and what is wrong with it.
 
 class FormatError(Exception):
     """A file that cannot be read or written: one line, `path: what is wrong`."""
+
+
+def os_problem(path, exc):
+    """`path: what is wrong` of an OSError opening it, in the words every reader here uses."""
+    if isinstance(exc, FileNotFoundError):
+        return "%s: no such file" % path
+    if isinstance(exc, IsADirectoryError):
+        return "%s: a folder, not a file" % path
+    return "%s: %s" % (path, exc.strerror or exc)

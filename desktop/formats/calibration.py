@@ -2,7 +2,7 @@
 
 import json
 
-from desktop.formats import FormatError
+from desktop.formats import FormatError, os_problem
 from shared.calibration import Calibration, plausibility_problem as shared_plausibility
 
 
@@ -12,7 +12,7 @@ def load_calibration(path):
         with open(path) as fh:
             d = json.load(fh)
     except OSError as exc:
-        raise FormatError("%s: %s" % (path, exc.strerror or exc))
+        raise FormatError(os_problem(path, exc))
     except ValueError as exc:
         raise FormatError("%s: not JSON (%s)" % (path, exc))
     try:

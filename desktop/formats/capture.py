@@ -57,7 +57,7 @@ import json
 
 import numpy as np
 
-from desktop.formats import FormatError
+from desktop.formats import FormatError, os_problem
 from desktop.sim.ads1292.registers import Config, codes_to_volts, volts_to_temperature
 
 KEYS = ("codes", "t", "nT_per_code", "registers", "sensor_matrix", "sensor_offset", "config")
@@ -94,6 +94,10 @@ def _savez(path, arrays):
 def load_capture(path):
     """Read a capture: dict of arrays, config decoded from JSON. FormatError if it is none."""
     try:
+        with open(path, "rb") as fh:
+            if fh.read(2) != b"PK":    # an .npz is a zip; numpy would read anything else as a pickle
+                raise FormatError("%s: not a fluxcal capture (not an .npz: fluxcal simulate, capture and survey "
+                                  "write them)" % path)
         with np.load(path, allow_pickle=False) as z:
             missing = [k for k in ("codes", "nT_per_code") if k not in z.files]
             if missing:
@@ -101,7 +105,9 @@ def load_capture(path):
             cap = {k: z[k] for k in z.files}
         if "config" in cap:
             cap["config"] = json.loads(str(cap["config"]))
-    except (OSError, ValueError, EOFError) as exc:
+    except OSError as exc:
+        raise FormatError(os_problem(path, exc))
+    except (ValueError, EOFError) as exc:
         raise FormatError("%s: not a fluxcal capture (%s)" % (path, exc))
     return cap
 
