@@ -199,9 +199,12 @@ def _act(hh, action, arg):
 def _status(hh, now):
     p = hh.pacer
     cap = "%.1fx" % p.capacity if p is not None and p.capacity else "-"
-    who = "following the LED" if hh.hands.following else "by hand" if not hasattr(hh.operator, "begin") else "survey"
-    print("%6.0f s  simulated %.1f s  capacity %s real time  operator: %s (%s)"
-          % (now, hh.world.time, cap, hh.operator.mode, who), flush=True)
+    if hasattr(hh.operator, "begin"):
+        who = "a surveyor"
+    else:   # in the words of --operator and the keys (the operator's own modes: hand, hold, spin)
+        doing = {"hand": "turning", "hold": "holding still", "spin": "spinning"}.get(hh.operator.mode, hh.operator.mode)
+        who = "following the LED, %s" % doing if hh.hands.following else doing
+    print("%6.0f s  simulated %.1f s  capacity %s real time  operator: %s" % (now, hh.world.time, cap, who), flush=True)
 
 
 def _deploy_if_empty(hh, flash, own, wait_s):
