@@ -105,6 +105,9 @@ def test_demo_runs_the_firmware_on_the_simulated_handheld(tmp_path):
     from tests.device_bounds import DEFAULTS, spin_ptp_bound
     assert ptp <= spin_ptp_bound(Scenario(rate=DEFAULTS["rate"]), 100), ptp
     assert (tmp_path / "device_spin.png").exists() and (tmp_path / "device_coverage.png").exists()
+    # and again, as a user runs `make demo` twice: a fresh board, not the first run's calibration in force
+    again = fluxcal("demo", "--out", str(tmp_path))
+    assert again.returncode == 0, again.stdout[-2000:] + again.stderr[-2000:]
 
 
 def test_core_demo_reaches_the_noise_floor():

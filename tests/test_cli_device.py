@@ -127,6 +127,19 @@ def test_calibrate_auto_then_pull_cal_agrees_with_a_numpy_fit(tmp_path):
     assert float(verified[0].split("peak-to-peak ")[1].split(" nT")[0]) < 4 * bound, verified
 
 
+def test_calibrate_terminated_cancels_its_session(handheld):
+    # a closed terminal or a `timeout` (SIGTERM): the session ends as on Ctrl-C, not left busy
+    import signal
+    proc = subprocess.Popen([sys.executable, "-m", "desktop", "calibrate", "--port", handheld.port], cwd=ROOT,
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + NO_HANG_S
+    while "coverage" not in proc.stdout.readline():    # its first progress line: the session runs
+        assert time.monotonic() < deadline and proc.poll() is None, proc.communicate()
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=NO_HANG_S) == 128 + signal.SIGTERM
+    assert json.loads(ok(fluxcal("status", "--json", "--port", handheld.port)))["status"]["state"] == "survey"
+
+
 @pytest.mark.parametrize("flags, keys, words", [
     ((), "c\n", ("calibration cancelled",)),
     # a finish typed at once: too few samples, or (the key read later on a loaded host) too narrow an arc

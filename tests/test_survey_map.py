@@ -97,3 +97,11 @@ def test_cli_maps_a_simulated_survey(tmp_path, capsys):
     assert "not a walked survey" in capsys.readouterr().err
     assert main(["map", str(hand), "-o", str(tmp_path / "new")]) == 1
     assert not (tmp_path / "new").exists()      # a refused map makes no folder
+    # a recording stopped before its first line was marked: said in one line (was a numpy traceback)
+    import numpy as np
+    with np.load(cap) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays["line_marks"] = arrays["line_marks"][:0]
+    np.savez(tmp_path / "unmarked.npz", **arrays)
+    assert main(["map", str(tmp_path / "unmarked.npz"), "-o", str(tmp_path / "none")]) == 1
+    assert "no line was marked start and end" in capsys.readouterr().err

@@ -4,7 +4,7 @@ Starts a session (`start-cal`), shows the firmware's progress (`cal` events,
 once a second), the coverage of the sphere (`get-coverage`) on an equal-area
 map with the largest gap named and a warning when the sensor is not turning
 (desktop/views/), and ends it: f or Enter finishes (`finish-cal`), c, q or Esc
-cancels (`cancel-cal`, also on Ctrl-C). Without --auto the session is started
+cancels (`cancel-cal`, also on Ctrl-C, SIGTERM or a closed terminal). Without --auto the session is started
 with `hold`, so the firmware waits for the operator's key even once it is ready
 (at max_cal_s it ends any session); --auto waits for the firmware to finish by
 itself, sending finish-cal itself at `ready` when the device's auto_finish is
@@ -16,6 +16,7 @@ force stays and the command exits 1 saying so in one line. A failed or cancelled
 calibration leaves the previous one in force and exits 1.
 """
 
+import signal
 import sys
 import time
 
@@ -60,6 +61,10 @@ def run(args):
         previous = dev.ask("get-cal")["cal"]
         status = dev.ask("status")
         _start(dev, "quick" if args.quick else "full" if args.full else "", hold=not args.auto)
+        # a terminal closed or a `timeout` (SIGHUP, SIGTERM) cancels the session as Ctrl-C does: left
+        # running, it kept the board busy and at max_cal_s put its own result in force
+        for sig in (signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, _terminated)
         try:
             view = Board(cfg, args.auto) if sys.stdout.isatty() else Lines(cfg)
             with view, Keys(enabled=not args.auto) as keys:
@@ -92,6 +97,10 @@ def run(args):
         for line in calibration_lines(previous, status):
             print("  " + line)
     return 0
+
+
+def _terminated(signum, _frame):
+    raise SystemExit(128 + signum)
 
 
 def _start(dev, kind, hold):

@@ -13,6 +13,7 @@ and writes out/device_spin.png and out/device_coverage.png.
 """
 
 import os
+import shutil
 import sys
 import time
 
@@ -31,7 +32,7 @@ def _plots(r, out_dir):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        print("(matplotlib not installed: no plots)")
+        print("(matplotlib not installed: no plots; pip install 'fluxcal[plots]')")
         return []
     paths = []
     f_raw, f_cal = r["spin_f_raw"], r["spin_f_cal"]
@@ -82,7 +83,9 @@ def run(out_dir="out", rotate_s=120.0, kind=None, seed=1):
                 t, e.get("n"), e.get("coverage"), e.get("pred_nt"), "  (ready)" if e.get("ready") else ""))
             sys.stdout.flush()
 
-    r = calibrate_and_verify(kind=kind, root=os.path.join(out_dir, "device"), seed=seed, rotate_s=rotate_s,
+    root = os.path.join(out_dir, "device")
+    shutil.rmtree(root, ignore_errors=True)    # a board fresh each run: a calibration kept would make the next one "no better"
+    r = calibrate_and_verify(kind=kind, root=root, seed=seed, rotate_s=rotate_s,
                              spin_s=10.0, auto_finish=False, progress=progress)
     cal = r["cal"] or {}
     if cal.get("state") != codes.DONE:

@@ -6,6 +6,8 @@
 
 import numpy as np
 
+from desktop.formats import FormatError
+
 from desktop.sim.field import DECLINATION_DEG, INCLINATION_DEG, earth_vector
 from desktop.survey.anomalies import find_anomalies
 from desktop.survey.gridding import interpolate
@@ -22,6 +24,8 @@ def make_map(path, cal=None, steps=STEPS, interpolate_across=True, sample_m=0.12
              sensor_height_m=0.3):
     """Read, process, grid and search a survey; `stripes_nT` is taken before destriping (after drift)."""
     lines, grid = read_survey(path, cal, sample_m)
+    if not lines:      # a survey stopped before its first line was marked
+        raise FormatError("%s: no traverse in it: no line was marked start and end (nothing to map)" % path)
     stripes = []
     report = process(lines, steps, before_destripe=lambda ls: stripes.append(stripes_nT(ls)))
     mg = interpolate(lines, grid, interpolate_across)
