@@ -235,3 +235,17 @@ def test_a_full_coverage_png_shows_its_cells():
     borders = np.mean(grey > 200)                            # the white outlines
     plt.close(fig)
     assert full > 0.6 and borders > 0.02, (full, borders)
+
+
+def test_piped_calibrate_says_once_which_keys_finish_when_ready(capsys):
+    # a terminal's board says "READY: press f or Enter"; piped, the lines said only READY, and the
+    # key that finishes (a line on standard input) went unsaid
+    from desktop.cli._calibrate_view import Lines
+    cfg = {"min_coverage": 0.5, "target_error_nt": 1.0}
+    events = [{"coverage": 0.3, "n": 100, "pred_nt": 2.0}] + [{"coverage": 0.6, "n": 300, "pred_nt": 0.5, "ready": True}] * 2
+    for auto, expected in ((False, 1), (True, 0)):
+        view = Lines(cfg, auto)
+        for ev in events:
+            view.update(ev, None)
+        out = capsys.readouterr().out
+        assert out.count("READY: f or Enter on standard input finishes") == expected, out

@@ -43,15 +43,19 @@ class Lines(_Guide):
     WARN_EVERY = 5
     SAY_EVERY = 10
 
-    def __init__(self, cfg):
+    def __init__(self, cfg, auto=True):
         super().__init__(cfg)
         self.said_gap = None
         self.since_said = 0
         self.warned = 0
+        self.say_ready = not auto     # the keys' line once, when it first reads READY (the terminal's says it too)
 
     def update(self, ev, coverage):
         t, warning, gap = self.observe(ev, coverage)
         print("%6.1f s  %s" % (t, progress_line(ev, self.cfg)), flush=True)
+        if ev.get("ready") and self.say_ready:
+            self.say_ready = False
+            print("         READY: f or Enter on standard input finishes (or keep turning; c cancels)", flush=True)
         self.since_said += 1
         where = gap and gap.split(" around ")[-1]      # the region, without its share
         if gap and (where != self.said_gap or self.since_said >= self.SAY_EVERY):

@@ -66,7 +66,7 @@ def run(args):
         for sig in (signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, _terminated)
         try:
-            view = Board(cfg, args.auto) if sys.stdout.isatty() else Lines(cfg)
+            view = Board(cfg, args.auto) if sys.stdout.isatty() else Lines(cfg, args.auto)
             with view, Keys(enabled=not args.auto) as keys:
                 result = _follow(dev, cfg, args.auto, view, keys)
         except BaseException:
