@@ -45,7 +45,7 @@ def run(args):
             raise CommandError("%s: %d bytes as a request, the firmware takes %d: trim its meta"
                                % (args.calibration, len(request), MAX_LINE))
         old = dev.ask("get-cal")["cal"]
-        kept = None if old is None or _same_in_all(old, cal) else _keep(old, scale, args.calibration)
+        kept = None if old is None or _same(old, cal, applied=True) else _keep(old, scale, args.calibration)
         try:
             dev.ask(request)
         except DeviceError:      # refused: the one in force stays, and no copy of it is left
@@ -67,13 +67,13 @@ def run(args):
 
 def _keep(record, scale, pushed):
     """The calibration in force (get-cal's record) written beside the pushed file; its path."""
+    from desktop.formats import FormatError
+
     stem = os.path.join(os.path.dirname(os.path.abspath(pushed)), "replaced-" + time.strftime("%Y%m%d-%H%M%S"))
     path, n = stem + ".json", 1
     while os.path.exists(path):    # two pushes within a second
         n += 1
         path = "%s-%d.json" % (stem, n)
-    from desktop.formats import FormatError
-
     try:
         save_device_calibration(record, scale, path)
     except (CommandError, FormatError) as exc:
@@ -81,16 +81,14 @@ def _keep(record, scale, pushed):
     return os.path.relpath(path)
 
 
-def _same(record, cal, rel=1e-5):
-    """The record the device reports back is `cal`, to the precision of a board's float32."""
-    sent = [v for row in cal.matrix for v in row] + cal.offset + [cal.field]
-    got = [v for row in record["matrix"] for v in row] + list(record["offset"]) + [record["field"]]
-    return all(abs(a - b) <= rel * max(abs(a), abs(b), 1e-12) for a, b in zip(sent, got))
-
-
-def _same_in_all(record, cal):
-    """_same, and the same response and temperature coefficients: nothing the survey applies differs."""
-    return _same(record, cal) and _near(record.get("response"), cal.response) and _near(record.get("tempco"), cal.tempco)
+def _same(record, cal, applied=False):
+    """The record is `cal` to the precision of a board's float32: its matrix, offset and field (the
+    one the device reports back); applied: its response and temperature coefficients too, all the
+    survey applies (the one in force, which push-cal keeps only where it differs)."""
+    mine = {"matrix": cal.matrix, "offset": cal.offset, "field": cal.field, "response": cal.response,
+            "tempco": cal.tempco}
+    return all(_near(record.get(k), mine[k]) for k in ("matrix", "offset", "field") + (("response", "tempco")
+                                                                                        if applied else ()))
 
 
 def _near(a, b, rel=1e-5):
